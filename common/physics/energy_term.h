@@ -1,0 +1,47 @@
+#pragma once
+// One term of the incremental potential (inertia, membrane, bending, gravity, wind, pressure and,
+// later, contact barriers and friction). The time step minimises the sum of the terms a scene
+// declares; a term that the scene does not declare is never constructed and costs nothing.
+//
+// Every member takes the stacked positions x (size 3n, metres, x[3i+k] = coordinate k of vertex i,
+// vertex indices global over all objects of the scene).
+#include <string>
+
+#include <Eigen/Core>
+
+#include "physics/hessian_assembly.h"
+#include "physics/hessian_projection.h"
+
+namespace pd {
+
+// What a term may lag over one time step (wind drag coefficients now, friction bases later).
+struct StepStart {
+  double time_end = 0.0;                 // time at the end of the step being solved, s
+  double h = 0.0;                        // time step, s
+  const Eigen::VectorXd* x = nullptr;    // positions at the start of the step, m
+  const Eigen::VectorXd* v = nullptr;    // velocities at the start of the step, m/s
+};
+
+class EnergyTerm {
+ public:
+  virtual ~EnergyTerm() = default;
+
+  // Short name used as the stats key in the frame file ("membrane", "bending", "gravity", ...).
+  virtual std::string name() const = 0;
+
+  virtual double value(const Eigen::VectorXd& x) const = 0;
+  // grad += d value / d x.
+  virtual void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const = 0;
+  // Adds the Hessian, element by element, each element projected as `projection` says.
+  virtual void add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
+                           HessianAssembly& hessian) const = 0;
+
+  // Called once before the Newton iterations of each step.
+  virtual void begin_step(const StepStart& /*step*/) {}
+
+  // Largest alpha in (0, 1] such that x + alpha * dx stays admissible for this term (contact CCD,
+  // strain limits, inverted volumes). Terms without such a constraint return 1.
+  virtual double max_step(const Eigen::VectorXd& /*x*/, const Eigen::VectorXd& /*dx*/) const { return 1.0; }
+};
+
+}  // namespace pd

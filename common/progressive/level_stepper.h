@@ -1,0 +1,49 @@
+#pragma once
+// Implicit-Euler time stepping of one level (PD eq. 3): each step minimises
+//   1/(2h^2) ||x - (x_t + h v_t)||_M^2 + E(x)
+// with projected Newton, and reports what each frame cost and where its energy went.
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "progressive/scene_system.h"
+#include "solver/cholmod_solver.h"
+#include "solver/newton.h"
+
+namespace pd {
+
+// Statistics of one stored frame; frame 0 carries the initial state's energies and zero iterations.
+struct FrameRecord {
+  int frame = 0;
+  double time = 0.0;                   // s
+  Eigen::VectorXd x;                   // stacked positions, m
+  NewtonReport newton;                 // empty for frame 0
+  double seconds = 0.0;                // wall time of the step
+  double kinetic_energy = 0.0;         // J
+  std::vector<std::pair<std::string, double>> energies;  // potential terms (not inertia), J
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> center_of_mass;
+};
+
+class LevelStepper {
+ public:
+  LevelStepper(SceneSystem& system, const SolverSettings& settings, double h);
+
+  // Frame 0: the initial state.
+  FrameRecord initial_frame() const;
+  // Advances from (x, v) at frame `frame` to frame + 1, updating x and v.
+  FrameRecord step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v);
+
+ private:
+  FrameRecord record(int frame, const Eigen::VectorXd& x, const Eigen::VectorXd& v) const;
+
+  SceneSystem& sys_;
+  SolverSettings settings_;
+  double h_;
+  HessianAssembly hessian_;
+  CholmodSolver solver_;
+};
+
+}  // namespace pd

@@ -1,0 +1,124 @@
+#include "progressive/scene_system.h"
+
+#include <algorithm>
+#include <memory>
+
+#include <Eigen/Geometry>
+
+#include "geometry/topology.h"
+#include "physics/bending_hinge.h"
+#include "physics/gravity.h"
+#include "physics/inertia.h"
+#include "physics/membrane_neo_hookean.h"
+#include "physics/pressure.h"
+#include "physics/wind.h"
+
+namespace pd {
+
+namespace {
+
+// Faces of object k shifted to global vertex indices.
+Faces offset_faces(const Faces& F, int offset) {
+  Faces out = F;
+  out.array() += offset;
+  return out;
+}
+
+}  // namespace
+
+SceneSystem build_scene_system(const Scene& scene) {
+  SceneSystem sys;
+  int n = 0, m = 0;
+  sys.object_offsets.push_back(0);
+  for (const auto& obj : scene.objects) {
+    n += obj.rest.num_vertices();
+    m += obj.rest.num_faces();
+    sys.object_offsets.push_back(n);
+    sys.object_names.push_back(obj.name);
+  }
+  sys.rest.V.resize(n, 3);
+  sys.rest.F.resize(m, 3);
+  sys.masses = Eigen::VectorXd::Zero(3 * n);
+  sys.x0.resize(3 * n);
+  sys.v0.resize(3 * n);
+
+  // Per-object terms; each object has its own material, so its own term instances.
+  std::vector<std::unique_ptr<EnergyTerm>> terms;
+  int face_offset = 0;
+  for (size_t k = 0; k < scene.objects.size(); ++k) {
+    const SceneObject& obj = scene.objects[k];
+    const int off = sys.object_offsets[k];
+    const int nv = obj.rest.num_vertices();
+    sys.rest.V.middleRows(off, nv) = obj.rest.V;
+    const Faces F = offset_faces(obj.rest.F, off);
+    sys.rest.F.middleRows(face_offset, obj.rest.num_faces()) = F;
+    face_offset += obj.rest.num_faces();
+    for (int i = 0; i < nv; ++i) {
+      sys.x0.segment<3>(3 * (off + i)) = obj.initial.row(i).transpose();
+      sys.v0.segment<3>(3 * (off + i)) = obj.initial_velocity;
+    }
+    const Material& mat = obj.material;
+    sys.masses.segment(3 * off, 3 * nv) = lumped_masses(obj.rest.F, obj.rest.V, mat.density * mat.thickness);
+
+    terms.push_back(std::make_unique<NeoHookeanMembrane>(
+        F, sys.rest.V, MembraneMaterialParams::from(mat.youngs_modulus, mat.poisson_ratio, mat.thickness)));
+    std::vector<Hinge> hinges = build_topology(obj.rest).hinges;
+    for (auto& hg : hinges)
+      for (int& v : hg.v) v += off;
+    if (!hinges.empty())
+      terms.push_back(std::make_unique<HingeBending>(hinges, sys.rest.V, mat.bending_rigidity()));
+    if (obj.pressure) terms.push_back(std::make_unique<PressureTerm>(F, sys.x0, *obj.pressure));
+    if (scene.wind && obj.wind) terms.push_back(std::make_unique<WindDrag>(F, *scene.wind));
+
+    for (const auto& group : obj.pins) {
+      int script = -1;
+      if (group.script) {
+        script = static_cast<int>(sys.scripts.size());
+        sys.scripts.push_back(*group.script);
+      }
+      for (int v : group.vertices)
+        sys.pins.push_back({off + v, sys.x0.segment<3>(3 * (off + v)), script});
+    }
+  }
+
+  // Inertia first, gravity (only when non-zero) next, then elasticity and the rest.
+  sys.ip.add_term(std::make_unique<Inertia>(sys.masses));
+  if (scene.gravity.squaredNorm() > 0) sys.ip.add_term(std::make_unique<Gravity>(sys.masses, scene.gravity));
+  for (auto& t : terms) sys.ip.add_term(std::move(t));
+
+  std::vector<char> fixed(3 * n, 0);
+  for (const auto& pin : sys.pins) fixed[3 * pin.vertex] = fixed[3 * pin.vertex + 1] = fixed[3 * pin.vertex + 2] = 1;
+  sys.ip.set_fixed_dofs(std::move(fixed));
+
+  const auto X = as_rows(sys.x0);
+  sys.bbox_diagonal = (X.colwise().maxCoeff() - X.colwise().minCoeff()).norm();
+  return sys;
+}
+
+Vec3 pin_position(const SceneSystem& sys, const PinnedVertex& pin, double t) {
+  if (pin.script < 0) return pin.start;
+  const PinScript& s = sys.scripts[pin.script];
+  const double tau = std::clamp(t - s.start, 0.0, s.end - s.start);
+  const double rate = s.angular_velocity.norm();
+  Mat3 R = Mat3::Identity();
+  if (rate > 0) R = Eigen::AngleAxisd(rate * tau, s.angular_velocity / rate).toRotationMatrix();
+  return s.center + R * (pin.start - s.center) + s.velocity * tau;
+}
+
+Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> centers_of_mass(const SceneSystem& sys,
+                                                                          const Eigen::VectorXd& x) {
+  const int k = static_cast<int>(sys.object_names.size());
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> com(k, 3);
+  for (int o = 0; o < k; ++o) {
+    Vec3 sum = Vec3::Zero();
+    double mass = 0;
+    for (int v = sys.object_offsets[o]; v < sys.object_offsets[o + 1]; ++v) {
+      sum += sys.masses[3 * v] * x.segment<3>(3 * v);
+      mass += sys.masses[3 * v];
+    }
+    com.row(o) = (sum / mass).transpose();
+  }
+  return com;
+}
+
+}  // namespace pd

@@ -1,0 +1,43 @@
+#pragma once
+// The discrete system of a scene at one resolution: all objects' vertices concatenated into one
+// stacked vector, their lumped masses, pins, and the incremental potential built from exactly the
+// terms the scene declares (a scene without wind has no wind term, and so on).
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "geometry/mesh.h"
+#include "scene/scene.h"
+#include "solver/incremental_potential.h"
+
+namespace pd {
+
+struct PinnedVertex {
+  int vertex = 0;        // global vertex index
+  Vec3 start;            // position at t = 0, m
+  int script = -1;       // index into SceneSystem::scripts, -1 = fixed in place
+};
+
+struct SceneSystem {
+  TriMesh rest;                          // all objects, global vertex indices, rest positions
+  std::vector<int> object_offsets;       // object k owns vertices [off[k], off[k+1])
+  std::vector<std::string> object_names;
+  Eigen::VectorXd masses;                // lumped, per dof (3 per vertex), kg
+  Eigen::VectorXd x0, v0;                // initial stacked positions (m) and velocities (m/s)
+  std::vector<PinnedVertex> pins;
+  std::vector<PinScript> scripts;
+  double bbox_diagonal = 0.0;            // of the initial positions, m (scales the Newton tolerance)
+  IncrementalPotential ip;               // inertia first, then the scene's terms
+};
+
+SceneSystem build_scene_system(const Scene& scene);
+
+// Where a pinned vertex is at time t (s).
+Vec3 pin_position(const SceneSystem& sys, const PinnedVertex& pin, double t);
+
+// Centre of mass of each object (rows), m.
+Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> centers_of_mass(const SceneSystem& sys,
+                                                                          const Eigen::VectorXd& x);
+
+}  // namespace pd

@@ -1,0 +1,88 @@
+#pragma once
+// A parsed, validated scene: everything a simulation needs, in SI units.
+// docs/scene-format.md documents the JSON keys that fill these fields.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geometry/mesh.h"
+#include "physics/hessian_projection.h"
+
+namespace pd {
+
+struct Material {
+  double density = 0.0;          // kg/m^3 (volumetric; mass per area = density * thickness)
+  double youngs_modulus = 0.0;   // Pa, membrane
+  double poisson_ratio = 0.0;    // dimensionless, in [0, 0.5)
+  double thickness = 0.0;        // m
+  // Young's modulus used for bending only, Pa. Cloth bends far more easily than its membrane
+  // stiffness and thickness predict; scenes set this to match measured bending rigidity.
+  std::optional<double> bending_youngs_modulus;
+
+  // Plate bending rigidity D = E_b t^3 / (12 (1 - nu^2)), N m.
+  double bending_rigidity() const;
+};
+
+// Rigid motion applied to pinned vertices over time: a pinned vertex with rest-frame position X
+// (its initial position) is at  c + R(omega * s) (X - c) + velocity * s,  s = clamp(t - start, 0, end - start).
+struct PinScript {
+  Vec3 velocity = Vec3::Zero();          // m/s
+  Vec3 angular_velocity = Vec3::Zero();  // rad/s, axis * rate (right-hand rule)
+  Vec3 center = Vec3::Zero();            // m, centre of rotation at time `start`
+  double start = 0.0;                    // s
+  double end = 1e300;                    // s
+};
+
+struct PinGroup {
+  std::vector<int> vertices;          // object-local, 0-based, sorted, unique
+  std::optional<PinScript> script;    // absent: the vertices stay where they start
+};
+
+// Internal pressure of a closed shell. Constant: potential -p V. Ideal gas (isothermal): the
+// pressure is `pressure` at the initial volume V0 and falls as p V0 / V; potential -p V0 ln V.
+struct Pressure {
+  enum class Model { Constant, IdealGas } model = Model::Constant;
+  double pressure = 0.0;  // Pa (gauge)
+};
+
+struct SceneObject {
+  std::string name;
+  TriMesh rest;                        // rest shape after the object's transform, m
+  Positions initial;                   // initial positions (== rest.V unless posed), m
+  Vec3 initial_velocity = Vec3::Zero();  // m/s, every vertex
+  Material material;
+  std::vector<PinGroup> pins;
+  std::optional<Pressure> pressure;    // closed shells only
+  bool wind = true;                    // whether the scene's wind acts on this object
+};
+
+// Air moving at air_velocity * (1 + gust_amplitude * sin(2 pi gust_frequency t)), drag on each
+// triangle proportional to the normal component of its velocity relative to the air.
+struct Wind {
+  Vec3 air_velocity = Vec3::Zero();  // m/s
+  double air_density = 1.2;          // kg/m^3
+  double drag_coefficient = 1.0;     // normal drag coefficient C_d, dimensionless
+  double gust_amplitude = 0.0;       // fraction of air_velocity, >= 0
+  double gust_frequency = 0.0;       // Hz
+};
+
+struct SolverSettings {
+  // Newton stops when ||p||_inf / h < tolerance * (bounding-box diagonal), p the Newton step.
+  double tolerance = 1e-3;
+  int max_newton_iterations = 200;
+  HessianProjection projection = HessianProjection::Clamp;
+};
+
+struct Scene {
+  std::string source_path;   // the file it was read from (for messages)
+  std::string json_text;     // the scene file's text, stored in the frame file
+  std::string name;
+  double time_step = 0.0;    // h, s; one stored frame per step
+  int frames = 0;            // N: frames 0..N are stored
+  Vec3 gravity = Vec3(0, -9.81, 0);  // m/s^2
+  std::optional<Wind> wind;
+  SolverSettings solver;
+  std::vector<SceneObject> objects;
+};
+
+}  // namespace pd

@@ -1,0 +1,51 @@
+#include "solver/incremental_potential.h"
+
+#include <algorithm>
+
+namespace pd {
+
+void IncrementalPotential::begin_step(const StepStart& step) {
+  for (auto& t : terms_) t->begin_step(step);
+}
+
+double IncrementalPotential::value(const Eigen::VectorXd& x) const {
+  double e = 0.0;
+  for (const auto& t : terms_) e += t->value(x);
+  return e;
+}
+
+Eigen::VectorXd IncrementalPotential::gradient(const Eigen::VectorXd& x) const {
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(x.size());
+  for (const auto& t : terms_) t->add_gradient(x, g);
+  for (size_t i = 0; i < fixed_.size(); ++i)
+    if (fixed_[i]) g[static_cast<Eigen::Index>(i)] = 0.0;
+  return g;
+}
+
+void IncrementalPotential::hessian(const Eigen::VectorXd& x, HessianProjection projection,
+                                   HessianAssembly& out) const {
+  out.begin(static_cast<int>(x.size()));
+  out.set_fixed_dofs(fixed_);
+  for (const auto& t : terms_) t->add_hessian(x, projection, out);
+}
+
+double IncrementalPotential::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const {
+  double alpha = 1.0;
+  for (const auto& t : terms_) alpha = std::min(alpha, t->max_step(x, dx));
+  return alpha;
+}
+
+std::vector<std::pair<std::string, double>> IncrementalPotential::term_values(const Eigen::VectorXd& x,
+                                                                                const std::string& skip) const {
+  std::vector<std::pair<std::string, double>> out;
+  for (const auto& t : terms_) {
+    const std::string n = t->name();
+    if (n == skip) continue;
+    auto it = std::find_if(out.begin(), out.end(), [&](const auto& p) { return p.first == n; });
+    if (it == out.end()) out.emplace_back(n, t->value(x));
+    else it->second += t->value(x);
+  }
+  return out;
+}
+
+}  // namespace pd

@@ -1,0 +1,40 @@
+#pragma once
+// Projected Newton with backtracking line search, minimising an incremental potential.
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "solver/cholmod_solver.h"
+#include "solver/incremental_potential.h"
+
+namespace pd {
+
+struct NewtonSettings {
+  double h = 0.0;                  // time step, s (the stopping test is a velocity)
+  // Stop when ||p||_inf / h < step_tolerance, p the Newton step (m/s). The scene sets it to
+  // tolerance * bounding-box diagonal, following IPC's scale-free measure.
+  double step_tolerance = 0.0;
+  int max_iterations = 200;
+  int max_line_search_cuts = 40;   // halvings before the line search gives up (no descent)
+  HessianProjection projection = HessianProjection::Clamp;
+};
+
+struct NewtonReport {
+  int iterations = 0;              // Newton systems solved
+  int line_search_cuts = 0;        // halvings over all iterations
+  bool converged = false;
+  std::string stop_reason;         // "converged" | "max_iterations" | "no_descent" | "factorization_failed"
+  std::vector<double> step_measures;   // ||p||_inf / h per iteration, m/s
+  std::vector<double> gradient_norms;  // ||grad||_2 at the start of each iteration, and at the end
+  double assemble_seconds = 0.0, analyse_seconds = 0.0, factorize_seconds = 0.0, solve_seconds = 0.0,
+         line_search_seconds = 0.0;
+};
+
+// Minimises ip starting from x (fixed dofs already at their targets; they are never changed).
+// x must be admissible (finite potential).
+NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
+                             const NewtonSettings& settings, HessianAssembly& hessian,
+                             CholmodSolver& solver);
+
+}  // namespace pd

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs, from Debian packages only, everything needed to build and test the project.
+# Idempotent: packages already present are skipped by apt-get; running it twice changes nothing.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake pkg-config
+  libeigen3-dev          # dense/sparse linear algebra, fixed-size per-element types
+  libsuitesparse-dev     # CHOLMOD supernodal Cholesky
+  libopenblas-dev        # BLAS behind CHOLMOD (about 3x the reference BLAS on large cloth)
+  libcgal-dev libgmp-dev libmpfr-dev libboost-dev  # CGAL: decimation, independent intersection checks
+  libzmq3-dev cppzmq-dev # scheduler <-> worker messaging
+  libsqlite3-dev         # task store
+  nlohmann-json3-dev     # scene files, messages
+  libhdf5-dev            # frame store
+  libgtest-dev           # tests
+  libcli11-dev           # the pd command line
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+echo "setup: installing ${missing[*]}"
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+echo "setup: done"

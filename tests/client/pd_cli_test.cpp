@@ -1,0 +1,129 @@
+// The pd binary end to end: exit codes and messages for bad input, and a small simulate + export.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "support/test_paths.h"
+
+namespace pd {
+namespace {
+
+struct Run {
+  int exit_code;
+  std::string output;  // stdout and stderr
+};
+
+Run run_pd(const std::string& args) {
+  const std::string cmd = test::pd_binary() + " " + args + " 2>&1 < /dev/null";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return {-1, "popen failed"};
+  std::string out;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+std::string write_file(const std::string& dir, const std::string& name, const std::string& text) {
+  const std::string path = dir + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+// A valid scene small enough to run in a second; tests break one thing at a time.
+std::string small_scene(const std::string& material = R"("density": 200, "youngs_modulus": 1e5, "poisson_ratio": 0.3, "thickness": 0.001)",
+                        const std::string& mesh = R"({"type": "rectangle", "size": [0.5, 0.5], "cells": [4, 4]})") {
+  return R"({"format_version": 1, "name": "small", "time_step": 0.01, "frames": 3,
+  "objects": [{"name": "sheet", "mesh": )" + mesh + R"(, "material": {)" + material + R"(},
+               "pins": [{"indices": [20, 24]}]}]})";
+}
+
+TEST(PdCli, NoSubcommandFailsWithUsage) {
+  const Run r = run_pd("");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("simulate"), std::string::npos) << r.output;
+}
+
+TEST(PdCli, MissingSceneFileNamesTheFile) {
+  const std::string dir = test::scratch_dir("cli_missing");
+  const Run r = run_pd("simulate " + dir + "/nope.json --out " + dir + "/o.h5");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("nope.json"), std::string::npos) << r.output;
+}
+
+TEST(PdCli, MalformedJsonNamesFileAndLine) {
+  const std::string dir = test::scratch_dir("cli_malformed");
+  const std::string scene = write_file(dir, "bad.json", "{\n  \"time_step\": 0.01,\n  \"frames\": ,\n}");
+  const Run r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("bad.json"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("3:"), std::string::npos) << "line 3 expected in: " << r.output;
+}
+
+TEST(PdCli, NegativeThicknessNamesTheKey) {
+  const std::string dir = test::scratch_dir("cli_thickness");
+  const std::string scene = write_file(
+      dir, "s.json", small_scene(R"("density": 200, "youngs_modulus": 1e5, "poisson_ratio": 0.3, "thickness": -0.001)"));
+  const Run r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("thickness"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/o.h5")) << "no output file for a rejected scene";
+}
+
+TEST(PdCli, UnknownKeyIsRejected) {
+  const std::string dir = test::scratch_dir("cli_unknown");
+  const std::string scene = write_file(
+      dir, "s.json", small_scene(R"("density": 200, "youngs_modulus": 1e5, "poisson_ratio": 0.3, "thicknes": 0.001)"));
+  const Run r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("thicknes"), std::string::npos) << r.output;
+}
+
+TEST(PdCli, NonManifoldObjIsRejected) {
+  const std::string dir = test::scratch_dir("cli_nonmanifold");
+  // Three triangles share the edge 1-2.
+  write_file(dir, "fan.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 1 1 1\nf 1 2 3\nf 2 4 3\nf 3 2 5\n");
+  const std::string scene = write_file(dir, "s.json",
+      small_scene(R"("density": 200, "youngs_modulus": 1e5, "poisson_ratio": 0.3, "thickness": 0.001)",
+                  R"({"type": "obj", "path": "fan.obj"})"));
+  const Run r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("objects[0].mesh"), std::string::npos) << r.output;
+}
+
+TEST(PdCli, BadCommandLineValueFails) {
+  const Run r = run_pd("simulate x.json --out o.h5 --frames -3");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("frames"), std::string::npos) << r.output;
+}
+
+TEST(PdCli, ExportOfNonHdf5FileNamesTheFile) {
+  const std::string dir = test::scratch_dir("cli_export_bad");
+  const std::string bogus = write_file(dir, "bogus.h5", "this is not HDF5");
+  const Run r = run_pd("export " + bogus + " --out " + dir + "/frames");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("bogus.h5"), std::string::npos) << r.output;
+}
+
+TEST(PdCli, SimulateThenExportWritesOneObjPerFrame) {
+  const std::string dir = test::scratch_dir("cli_ok");
+  const std::string scene = write_file(dir, "s.json", small_scene());
+  const Run sim = run_pd("simulate " + scene + " --out " + dir + "/out.h5");
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  const Run exp = run_pd("export " + dir + "/out.h5 --level 0 --format obj --out " + dir + "/frames");
+  ASSERT_EQ(exp.exit_code, 0) << exp.output;
+  int objs = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/frames")) objs += e.path().extension() == ".obj";
+  EXPECT_EQ(objs, 4);  // frames 0..3
+  const Run lvl = run_pd("export " + dir + "/out.h5 --level 3 --out " + dir + "/frames2");
+  EXPECT_EQ(lvl.exit_code, 2) << lvl.output;
+}
+
+}  // namespace
+}  // namespace pd

@@ -1,0 +1,120 @@
+#include "solver/newton.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "geometry/mesh.h"
+
+namespace pd {
+namespace {
+
+// E(x) = sum_i ( x_i^4 / 4 + k/2 (x_i - c_i)^2 ): strictly convex, non-quadratic, per-vertex blocks.
+class QuarticTerm : public EnergyTerm {
+ public:
+  QuarticTerm(Eigen::VectorXd c, double k) : c_(std::move(c)), k_(k) {}
+  std::string name() const override { return "quartic"; }
+  double value(const Eigen::VectorXd& x) const override {
+    return (x.array().pow(4) / 4).sum() + k_ / 2 * (x - c_).squaredNorm();
+  }
+  void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g) const override {
+    g += (x.array().pow(3)).matrix() + k_ * (x - c_);
+  }
+  void add_hessian(const Eigen::VectorXd& x, HessianProjection p, HessianAssembly& H) const override {
+    for (int v = 0; v < x.size() / 3; ++v) {
+      Mat3 h = Mat3::Zero();
+      for (int i = 0; i < 3; ++i) h(i, i) = 3 * x[3 * v + i] * x[3 * v + i] + k_;
+      H.add<1>({v}, project_hessian<3>(h, p));
+    }
+  }
+
+ private:
+  Eigen::VectorXd c_;
+  double k_;
+};
+
+NewtonSettings settings(double tol) {
+  NewtonSettings s;
+  s.h = 1.0;
+  s.step_tolerance = tol;
+  s.max_iterations = 50;
+  s.projection = HessianProjection::None;
+  return s;
+}
+
+TEST(Newton, ConvergesQuadraticallyNearTheMinimiser) {
+  const int n = 30;
+  IncrementalPotential ip;
+  ip.add_term(std::make_unique<QuarticTerm>(Eigen::VectorXd::LinSpaced(3 * n, -2, 2), 0.5));
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(3 * n);
+  HessianAssembly H;
+  CholmodSolver solver;
+  const NewtonReport r = newton_minimize(ip, x, settings(1e-14), H, solver);
+  ASSERT_TRUE(r.converged) << r.stop_reason;
+  EXPECT_LE(r.iterations, 12);
+  // Once in the quadratic regime (step below 0.1), each step measure is bounded by C * previous^2.
+  int checked = 0;
+  for (size_t k = 1; k < r.step_measures.size(); ++k) {
+    const double prev = r.step_measures[k - 1], cur = r.step_measures[k];
+    if (prev < 0.1 && cur > 1e-13) {
+      EXPECT_LT(cur, 5.0 * prev * prev) << "iteration " << k;
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 2) << "quadratic regime must be observed over at least two iterations";
+  EXPECT_LT(ip.gradient(x).norm(), 1e-10);
+  EXPECT_EQ(solver.analyses(), 1) << "pattern is constant: one symbolic analysis";
+}
+
+TEST(Newton, FixedDofsNeverMove) {
+  const int n = 4;
+  IncrementalPotential ip;
+  ip.add_term(std::make_unique<QuarticTerm>(Eigen::VectorXd::Constant(3 * n, 1.0), 1.0));
+  std::vector<char> fixed(3 * n, 0);
+  fixed[0] = fixed[1] = fixed[2] = 1;
+  ip.set_fixed_dofs(fixed);
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(3 * n, 5.0);
+  HessianAssembly H;
+  CholmodSolver solver;
+  const NewtonReport r = newton_minimize(ip, x, settings(1e-10), H, solver);
+  ASSERT_TRUE(r.converged) << r.stop_reason << " after " << r.iterations;
+  EXPECT_EQ(x[0], 5.0);
+  EXPECT_EQ(x[1], 5.0);
+  EXPECT_EQ(x[2], 5.0);
+  EXPECT_NEAR(x[3], 0.6823278038280193, 1e-10);  // root of x^3 + x - 1
+}
+
+TEST(Newton, StallAtRoundOffStopsAsNoDescentInsteadOfLooping) {
+  // A tolerance far below what the potential's round-off can resolve (|E| ~ 500, so steps below
+  // ~1e-7 change E by less than one ulp): Newton must stop, say why, and not burn its iterations.
+  IncrementalPotential ip;
+  ip.add_term(std::make_unique<QuarticTerm>(Eigen::VectorXd::Constant(12, 1.0), 1.0));
+  std::vector<char> fixed(12, 0);
+  fixed[0] = fixed[1] = fixed[2] = 1;
+  ip.set_fixed_dofs(fixed);
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(12, 5.0);
+  HessianAssembly H;
+  CholmodSolver solver;
+  const NewtonReport r = newton_minimize(ip, x, settings(1e-30), H, solver);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.stop_reason, "no_descent");
+  EXPECT_LT(r.iterations, 50);
+  EXPECT_NEAR(x[3], 0.6823278038280193, 1e-6);
+}
+
+TEST(Newton, MaxIterationsIsReportedNotHidden) {
+  IncrementalPotential ip;
+  ip.add_term(std::make_unique<QuarticTerm>(Eigen::VectorXd::Constant(3, 1.0), 1.0));
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(3, 50.0);
+  HessianAssembly H;
+  CholmodSolver solver;
+  NewtonSettings s = settings(1e-14);
+  s.max_iterations = 2;
+  const NewtonReport r = newton_minimize(ip, x, s, H, solver);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.stop_reason, "max_iterations");
+  EXPECT_EQ(r.iterations, 2);
+}
+
+}  // namespace
+}  // namespace pd
