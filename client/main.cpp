@@ -27,6 +27,10 @@ int main(int argc, char** argv) {
   export_cmd->add_option("--format", exp.format, "Output format")->check(CLI::IsMember({"obj"}));
   export_cmd->add_option("--out,-o", exp.out_dir, "Output folder (created if missing)")->required();
 
+  if (argc < 2) {  // bare `pd`: show what it can do, and fail (nothing was done)
+    std::fputs(app.help().c_str(), stderr);
+    return 2;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -68,7 +68,7 @@ SceneSystem build_scene_system(const Scene& scene) {
     if (!hinges.empty())
       terms.push_back(std::make_unique<HingeBending>(hinges, sys.rest.V, mat.bending_rigidity()));
     if (obj.pressure) terms.push_back(std::make_unique<PressureTerm>(F, sys.x0, *obj.pressure));
-    if (scene.wind && obj.wind) terms.push_back(std::make_unique<WindDrag>(F, *scene.wind));
+    if (scene.wind && obj.wind) terms.push_back(std::make_unique<WindTerm>(F, *scene.wind));
 
     for (const auto& group : obj.pins) {
       int script = -1;
@@ -82,8 +82,8 @@ SceneSystem build_scene_system(const Scene& scene) {
   }
 
   // Inertia first, gravity (only when non-zero) next, then elasticity and the rest.
-  sys.ip.add_term(std::make_unique<Inertia>(sys.masses));
-  if (scene.gravity.squaredNorm() > 0) sys.ip.add_term(std::make_unique<Gravity>(sys.masses, scene.gravity));
+  sys.ip.add_term(std::make_unique<InertiaTerm>(sys.masses));
+  if (scene.gravity.squaredNorm() > 0) sys.ip.add_term(std::make_unique<GravityTerm>(sys.masses, scene.gravity));
   for (auto& t : terms) sys.ip.add_term(std::move(t));
 
   std::vector<char> fixed(3 * n, 0);

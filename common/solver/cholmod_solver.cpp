@@ -5,6 +5,9 @@
 
 #include <Eigen/CholmodSupport>
 
+// OpenBLAS (linked directly, ahead of the system BLAS that CHOLMOD was built against).
+extern "C" void openblas_set_num_threads(int num_threads);
+
 namespace pd {
 
 namespace {
@@ -19,6 +22,11 @@ struct CholmodSolver::Impl {
 };
 
 CholmodSolver::CholmodSolver() : impl_(std::make_unique<Impl>()) {
+  // One BLAS thread: threaded dgemm/dsyrk split their sums by thread count, so frames would differ
+  // in the last bits between machines with different core counts, and the farm promises the same
+  // frames whichever worker ran a task. (On 2 cores threading also cost more than it gained for
+  // cloth-sized supernodes: measured in docs/performance.md.)
+  openblas_set_num_threads(1);
   // A failed factorization is handled here (shifted retry), so CHOLMOD must not print on its own.
   impl_->llt.cholmod().print = 0;
 }

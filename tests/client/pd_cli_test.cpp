@@ -13,12 +13,12 @@
 namespace pd {
 namespace {
 
-struct Run {
+struct CliResult {
   int exit_code;
   std::string output;  // stdout and stderr
 };
 
-Run run_pd(const std::string& args) {
+CliResult run_pd(const std::string& args) {
   const std::string cmd = test::pd_binary() + " " + args + " 2>&1 < /dev/null";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return {-1, "popen failed"};
@@ -45,14 +45,14 @@ std::string small_scene(const std::string& material = R"("density": 200, "youngs
 }
 
 TEST(PdCli, NoSubcommandFailsWithUsage) {
-  const Run r = run_pd("");
+  const CliResult r = run_pd("");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("simulate"), std::string::npos) << r.output;
 }
 
 TEST(PdCli, MissingSceneFileNamesTheFile) {
   const std::string dir = test::scratch_dir("cli_missing");
-  const Run r = run_pd("simulate " + dir + "/nope.json --out " + dir + "/o.h5");
+  const CliResult r = run_pd("simulate " + dir + "/nope.json --out " + dir + "/o.h5");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("nope.json"), std::string::npos) << r.output;
 }
@@ -60,7 +60,7 @@ TEST(PdCli, MissingSceneFileNamesTheFile) {
 TEST(PdCli, MalformedJsonNamesFileAndLine) {
   const std::string dir = test::scratch_dir("cli_malformed");
   const std::string scene = write_file(dir, "bad.json", "{\n  \"time_step\": 0.01,\n  \"frames\": ,\n}");
-  const Run r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
+  const CliResult r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("bad.json"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("3:"), std::string::npos) << "line 3 expected in: " << r.output;
@@ -70,7 +70,7 @@ TEST(PdCli, NegativeThicknessNamesTheKey) {
   const std::string dir = test::scratch_dir("cli_thickness");
   const std::string scene = write_file(
       dir, "s.json", small_scene(R"("density": 200, "youngs_modulus": 1e5, "poisson_ratio": 0.3, "thickness": -0.001)"));
-  const Run r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
+  const CliResult r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("thickness"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/o.h5")) << "no output file for a rejected scene";
@@ -80,7 +80,7 @@ TEST(PdCli, UnknownKeyIsRejected) {
   const std::string dir = test::scratch_dir("cli_unknown");
   const std::string scene = write_file(
       dir, "s.json", small_scene(R"("density": 200, "youngs_modulus": 1e5, "poisson_ratio": 0.3, "thicknes": 0.001)"));
-  const Run r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
+  const CliResult r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("thicknes"), std::string::npos) << r.output;
 }
@@ -92,13 +92,13 @@ TEST(PdCli, NonManifoldObjIsRejected) {
   const std::string scene = write_file(dir, "s.json",
       small_scene(R"("density": 200, "youngs_modulus": 1e5, "poisson_ratio": 0.3, "thickness": 0.001)",
                   R"({"type": "obj", "path": "fan.obj"})"));
-  const Run r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
+  const CliResult r = run_pd("simulate " + scene + " --out " + dir + "/o.h5");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("objects[0].mesh"), std::string::npos) << r.output;
 }
 
 TEST(PdCli, BadCommandLineValueFails) {
-  const Run r = run_pd("simulate x.json --out o.h5 --frames -3");
+  const CliResult r = run_pd("simulate x.json --out o.h5 --frames -3");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("frames"), std::string::npos) << r.output;
 }
@@ -106,7 +106,7 @@ TEST(PdCli, BadCommandLineValueFails) {
 TEST(PdCli, ExportOfNonHdf5FileNamesTheFile) {
   const std::string dir = test::scratch_dir("cli_export_bad");
   const std::string bogus = write_file(dir, "bogus.h5", "this is not HDF5");
-  const Run r = run_pd("export " + bogus + " --out " + dir + "/frames");
+  const CliResult r = run_pd("export " + bogus + " --out " + dir + "/frames");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("bogus.h5"), std::string::npos) << r.output;
 }
@@ -114,14 +114,14 @@ TEST(PdCli, ExportOfNonHdf5FileNamesTheFile) {
 TEST(PdCli, SimulateThenExportWritesOneObjPerFrame) {
   const std::string dir = test::scratch_dir("cli_ok");
   const std::string scene = write_file(dir, "s.json", small_scene());
-  const Run sim = run_pd("simulate " + scene + " --out " + dir + "/out.h5");
+  const CliResult sim = run_pd("simulate " + scene + " --out " + dir + "/out.h5");
   ASSERT_EQ(sim.exit_code, 0) << sim.output;
-  const Run exp = run_pd("export " + dir + "/out.h5 --level 0 --format obj --out " + dir + "/frames");
+  const CliResult exp = run_pd("export " + dir + "/out.h5 --level 0 --format obj --out " + dir + "/frames");
   ASSERT_EQ(exp.exit_code, 0) << exp.output;
   int objs = 0;
   for (const auto& e : std::filesystem::directory_iterator(dir + "/frames")) objs += e.path().extension() == ".obj";
   EXPECT_EQ(objs, 4);  // frames 0..3
-  const Run lvl = run_pd("export " + dir + "/out.h5 --level 3 --out " + dir + "/frames2");
+  const CliResult lvl = run_pd("export " + dir + "/out.h5 --level 3 --out " + dir + "/frames2");
   EXPECT_EQ(lvl.exit_code, 2) << lvl.output;
 }
 

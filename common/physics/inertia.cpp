@@ -1,0 +1,51 @@
+#include "physics/inertia.h"
+
+#include <cassert>
+#include <utility>
+
+namespace pd {
+
+Eigen::VectorXd lumped_masses(const Faces& F, const Positions& rest, double mass_per_area) {
+  Eigen::VectorXd m = Eigen::VectorXd::Zero(3 * rest.rows());
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Vec3 p0 = rest.row(F(f, 0)).transpose();
+    const Vec3 e1 = rest.row(F(f, 1)).transpose() - p0;
+    const Vec3 e2 = rest.row(F(f, 2)).transpose() - p0;
+    const double third = mass_per_area * 0.5 * e1.cross(e2).norm() / 3.0;  // kg
+    for (int a = 0; a < 3; ++a)
+      for (int k = 0; k < 3; ++k) m[3 * F(f, a) + k] += third;
+  }
+  return m;
+}
+
+double kinetic_energy(const Eigen::VectorXd& masses, const Eigen::VectorXd& v) {
+  return 0.5 * (masses.array() * v.array().square()).sum();
+}
+
+InertiaTerm::InertiaTerm(Eigen::VectorXd masses) : masses_(std::move(masses)) {}
+
+void InertiaTerm::begin_step(const StepStart& step) {
+  assert(step.h > 0.0 && step.x && step.v);
+  assert(step.x->size() == masses_.size() && step.v->size() == masses_.size());
+  h_ = step.h;
+  xhat_ = *step.x + h_ * *step.v;
+  mass_over_h2_ = masses_ / (h_ * h_);
+}
+
+double InertiaTerm::value(const Eigen::VectorXd& x) const {
+  assert(h_ > 0.0);
+  return 0.5 * (mass_over_h2_.array() * (x - xhat_).array().square()).sum();
+}
+
+void InertiaTerm::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
+  assert(h_ > 0.0);
+  grad.array() += mass_over_h2_.array() * (x - xhat_).array();
+}
+
+void InertiaTerm::add_hessian(const Eigen::VectorXd& /*x*/, HessianProjection /*projection*/,
+                              HessianAssembly& hessian) const {
+  assert(h_ > 0.0);
+  hessian.add_diagonal(mass_over_h2_);
+}
+
+}  // namespace pd

@@ -1,0 +1,451 @@
+#include "scene/scene_file.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <Eigen/Geometry>
+
+#include "geometry/obj_io.h"
+#include "geometry/shapes.h"
+#include "geometry/topology.h"
+#include "scene/scene_json.h"
+#include "util/input_error.h"
+
+namespace pd {
+namespace {
+
+namespace fs = std::filesystem;
+using scene_json::Json;
+using scene_json::JsonNode;
+
+constexpr long long kFormatVersion = 1;
+constexpr long long kMaxFrames = 10000000;
+constexpr double kPi = 3.14159265358979323846;
+
+// Material presets: rows of Table 1 in the PSQ supplement (progressive-shell-quasistatics-2023),
+// see docs/scene-format.md. The table lists E_bend = E_mem for these rows, so presets leave
+// bending_youngs_modulus unset (it then follows youngs_modulus).
+struct MaterialPreset {
+  const char* name;
+  double density, youngs_modulus, poisson_ratio, thickness;
+};
+constexpr MaterialPreset kPresets[] = {
+    {"cotton", 472.6, 8.21e5, 0.243, 3.18e-4},   // "Hat on sphere" (the table's cloth rows)
+    {"rubber", 920.0, 1.0e5, 0.45, 5.0e-5},      // "Monster" (inflatable shell)
+    {"aluminum", 2710.0, 7.0e10, 0.33, 1.0e-5},  // "Soda can"
+};
+
+std::string format_number(double x) {
+  std::ostringstream out;
+  out.precision(10);
+  out << x;
+  return out.str();
+}
+
+std::string format_vec(const Vec3& v) {
+  return "[" + format_number(v.x()) + ", " + format_number(v.y()) + ", " + format_number(v.z()) + "]";
+}
+
+void check_vertex_budget(const JsonNode& node, long long vertices) {
+  if (vertices > kMaxSceneMeshVertices) {
+    node.fail_got("gives " + std::to_string(vertices) + " vertices, more than the limit of " +
+                  std::to_string(kMaxSceneMeshVertices) + " per object");
+  }
+}
+
+std::string resolve(const std::string& base_dir, const std::string& file) {
+  fs::path p(file);
+  if (p.is_relative() && !base_dir.empty()) p = fs::path(base_dir) / p;
+  return p.lexically_normal().string();
+}
+
+TriMesh read_obj_at(const JsonNode& path_node, const std::string& base_dir) {
+  std::string file = path_node.string();
+  if (file.empty()) path_node.fail_got("must be a path to an OBJ file");
+  try {
+    return read_obj(resolve(base_dir, file));
+  } catch (const InputError& e) {
+    path_node.fail(e.what());
+  }
+}
+
+// Runs a mesh generator; anything it throws becomes an InputError at the mesh's key path.
+template <class Make>
+TriMesh generate(const JsonNode& mesh, Make make) {
+  try {
+    return make();
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    mesh.fail(std::string("could not build the mesh: ") + e.what());
+  }
+}
+
+int as_int(long long v) { return static_cast<int>(v); }
+
+TriMesh read_mesh(const JsonNode& mesh, const std::string& base_dir) {
+  const std::string type = mesh.required("type").choice(
+      {"rectangle", "rectangle_equilateral", "icosphere", "box", "cylinder", "obj"}, "mesh type");
+  if (type == "rectangle") {
+    mesh.expect_keys({"type", "size", "cells"});
+    auto size = mesh.required("size").elements(2);
+    JsonNode cells_node = mesh.required("cells");
+    auto cells = cells_node.elements(2);
+    double w = size[0].positive(), h = size[1].positive();
+    long long nx = cells[0].integer(1, 100000), ny = cells[1].integer(1, 100000);
+    check_vertex_budget(cells_node, (nx + 1) * (ny + 1));
+    return generate(mesh, [&] { return make_rectangle(w, h, as_int(nx), as_int(ny)); });
+  }
+  if (type == "rectangle_equilateral") {
+    mesh.expect_keys({"type", "size", "cells_x"});
+    auto size = mesh.required("size").elements(2);
+    JsonNode cells_node = mesh.required("cells_x");
+    double w = size[0].positive(), h = size[1].positive();
+    long long n = cells_node.integer(1, 100000);
+    // Row count as make_rectangle_equilateral computes it, to bound the vertex count before building.
+    double rows = std::max(1.0, std::round(h / (w / n * std::sqrt(3.0) / 2.0)));
+    if (!(rows <= 1e7)) cells_node.fail_got("gives more than 10^7 rows of vertices for this size");
+    check_vertex_budget(cells_node, (static_cast<long long>(rows) + 1) * (n + 2));
+    return generate(mesh, [&] { return make_rectangle_equilateral(w, h, as_int(n)); });
+  }
+  if (type == "icosphere") {
+    mesh.expect_keys({"type", "radius", "subdivisions"});
+    double r = mesh.required("radius").positive();
+    long long s = mesh.required("subdivisions").integer(0, 8);
+    return generate(mesh, [&] { return make_icosphere(r, as_int(s)); });
+  }
+  if (type == "box") {
+    mesh.expect_keys({"type", "size", "cells"});
+    Vec3 size = mesh.required("size").positive_vec3();
+    JsonNode cells_node = mesh.required("cells");
+    long long c = cells_node.integer(1, 10000);
+    check_vertex_budget(cells_node, 6 * c * c + 2);
+    return generate(mesh, [&] { return make_box(size, as_int(c)); });
+  }
+  if (type == "cylinder") {
+    mesh.expect_keys({"type", "radius", "height", "segments", "rings", "capped"});
+    double r = mesh.required("radius").positive();
+    double h = mesh.required("height").positive();
+    long long segments = mesh.required("segments").integer(3, 100000);
+    JsonNode rings_node = mesh.required("rings");
+    long long rings = rings_node.integer(1, 100000);
+    auto capped_node = mesh.optional("capped");
+    bool capped = capped_node ? capped_node->boolean() : false;
+    check_vertex_budget(rings_node, segments * (rings + 1) + (capped ? 2 : 0));
+    return generate(mesh, [&] { return make_cylinder(r, h, as_int(segments), as_int(rings), capped); });
+  }
+  mesh.expect_keys({"type", "path"});
+  JsonNode path = mesh.required("path");
+  TriMesh m = read_obj_at(path, base_dir);
+  check_vertex_budget(path, m.num_vertices());
+  return m;
+}
+
+// x -> R (scale x) + translation
+struct Transform {
+  double scale = 1.0;
+  Mat3 rotation = Mat3::Identity();
+  Vec3 translation = Vec3::Zero();
+
+  void apply(Positions& V) const {
+    for (Eigen::Index i = 0; i < V.rows(); ++i) {
+      Vec3 x = V.row(i).transpose();
+      V.row(i) = (rotation * (scale * x) + translation).transpose();
+    }
+  }
+};
+
+Transform read_transform(const JsonNode& node) {
+  node.expect_keys({"scale", "rotation", "translation"});
+  Transform t;
+  if (auto s = node.optional("scale")) t.scale = s->positive();
+  if (auto r = node.optional("rotation")) {
+    r->expect_keys({"axis", "angle_deg"});
+    JsonNode axis_node = r->required("axis");
+    Vec3 axis = axis_node.vec3();
+    double angle = r->required("angle_deg").number();
+    if (!(axis.norm() > 0.0)) axis_node.fail_got("must be a non-zero vector");
+    t.rotation = Eigen::AngleAxisd(angle * kPi / 180.0, axis.normalized()).toRotationMatrix();
+  }
+  if (auto tr = node.optional("translation")) t.translation = tr->vec3();
+  return t;
+}
+
+Positions read_posed(const JsonNode& node, const TriMesh& rest, const std::string& rest_path,
+                     const std::string& base_dir) {
+  node.expect_keys({"obj"});
+  JsonNode obj = node.required("obj");
+  TriMesh posed = read_obj_at(obj, base_dir);
+  const std::string same = "; initial_positions must have the same connectivity as the rest mesh " +
+                           rest_path + " (same vertices and faces, in the same order)";
+  if (posed.num_vertices() != rest.num_vertices()) {
+    obj.fail("has " + std::to_string(posed.num_vertices()) + " vertices but the rest mesh has " +
+             std::to_string(rest.num_vertices()) + same);
+  }
+  if (posed.num_faces() != rest.num_faces()) {
+    obj.fail("has " + std::to_string(posed.num_faces()) + " faces but the rest mesh has " +
+             std::to_string(rest.num_faces()) + same);
+  }
+  for (int f = 0; f < rest.num_faces(); ++f) {
+    if (posed.F.row(f) != rest.F.row(f)) {
+      obj.fail("face " + std::to_string(f) + " differs from the rest mesh's face " + std::to_string(f) + same);
+    }
+  }
+  if (!posed.V.allFinite()) obj.fail("has non-finite vertex coordinates");
+  return posed.V;
+}
+
+Material read_material(const JsonNode& node) {
+  node.expect_keys({"preset", "density", "youngs_modulus", "poisson_ratio", "thickness", "bending_youngs_modulus"});
+  const MaterialPreset* preset = nullptr;
+  if (auto p = node.optional("preset")) {
+    std::string name = p->choice({"cotton", "rubber", "aluminum"}, "material preset");
+    for (const MaterialPreset& candidate : kPresets) {
+      if (name == candidate.name) preset = &candidate;
+    }
+  }
+  // A core key: read and checked when given, else from the preset, else an error.
+  auto core = [&](const char* key, double preset_value, auto check) -> double {
+    if (auto v = node.optional(key)) return check(*v);
+    if (preset) return preset_value;
+    throw InputError(node.file() + ": " + node.child_path(key) +
+                     ": required key is missing (give it, or a \"preset\")");
+  };
+  auto positive = [](const JsonNode& v) { return v.positive(); };
+  Material m;
+  m.density = core("density", preset ? preset->density : 0.0, positive);
+  m.youngs_modulus = core("youngs_modulus", preset ? preset->youngs_modulus : 0.0, positive);
+  m.poisson_ratio = core("poisson_ratio", preset ? preset->poisson_ratio : 0.0, [](const JsonNode& v) {
+    double nu = v.number();
+    if (!(nu >= 0.0 && nu < 0.5)) v.fail_got("must be >= 0 and < 0.5");
+    return nu;
+  });
+  m.thickness = core("thickness", preset ? preset->thickness : 0.0, positive);
+  if (auto eb = node.optional("bending_youngs_modulus")) m.bending_youngs_modulus = eb->positive();
+  return m;
+}
+
+PinScript read_script(const JsonNode& node) {
+  node.expect_keys({"velocity", "angular_velocity", "center", "start", "end"});
+  PinScript s;
+  if (auto v = node.optional("velocity")) s.velocity = v->vec3();
+  if (auto w = node.optional("angular_velocity")) s.angular_velocity = w->vec3();
+  if (auto c = node.optional("center")) s.center = c->vec3();
+  if (auto a = node.optional("start")) s.start = a->at_least(0.0);
+  if (auto b = node.optional("end")) {
+    s.end = b->number();
+    if (!(s.end > s.start)) b->fail_got("must be > start (" + format_number(s.start) + ")");
+  }
+  return s;
+}
+
+std::vector<int> select_in_region(const JsonNode& region, const Positions& initial) {
+  region.expect_keys({"min", "max"});
+  Vec3 lo = region.required("min").vec3();
+  Vec3 hi = region.required("max").vec3();
+  if (!(lo.array() <= hi.array()).all()) {
+    region.fail("min must be <= max on every axis, got min " + format_vec(lo) + " and max " + format_vec(hi));
+  }
+  std::vector<int> selected;
+  for (Eigen::Index i = 0; i < initial.rows(); ++i) {
+    Vec3 x = initial.row(i).transpose();
+    if ((x.array() >= lo.array()).all() && (x.array() <= hi.array()).all()) selected.push_back(static_cast<int>(i));
+  }
+  if (selected.empty()) {
+    Vec3 bmin = initial.colwise().minCoeff().transpose(), bmax = initial.colwise().maxCoeff().transpose();
+    region.fail("selects no vertex: no initial vertex position lies in the box min " + format_vec(lo) + ", max " +
+                format_vec(hi) + " (the object's initial positions span " + format_vec(bmin) + " to " +
+                format_vec(bmax) + ", after its transform)");
+  }
+  return selected;
+}
+
+std::vector<PinGroup> read_pins(const JsonNode& node, const Positions& initial, const std::string& object_path) {
+  std::vector<PinGroup> groups;
+  const int n = static_cast<int>(initial.rows());
+  std::vector<int> owner(n, -1);
+  for (const JsonNode& pin : node.elements()) {
+    pin.expect_keys({"indices", "region", "script"});
+    auto indices = pin.optional("indices");
+    auto region = pin.optional("region");
+    if (indices && region) pin.fail("give either \"indices\" or \"region\", not both");
+    if (!indices && !region) pin.fail("needs \"indices\" or \"region\" to select vertices");
+    PinGroup group;
+    if (indices) {
+      auto list = indices->elements();
+      if (list.empty()) indices->fail_got("must list at least one vertex index");
+      for (const JsonNode& e : list) {
+        long long v = e.integer(LLONG_MIN / 2, LLONG_MAX / 2);
+        if (v < 0 || v >= n) {
+          e.fail_got("vertex index out of range: the mesh has " + std::to_string(n) + " vertices (0 to " +
+                     std::to_string(n - 1) + ")");
+        }
+        group.vertices.push_back(static_cast<int>(v));
+      }
+      std::sort(group.vertices.begin(), group.vertices.end());
+      group.vertices.erase(std::unique(group.vertices.begin(), group.vertices.end()), group.vertices.end());
+    } else {
+      group.vertices = select_in_region(*region, initial);
+    }
+    const int index = static_cast<int>(groups.size());
+    for (int v : group.vertices) {
+      if (owner[v] >= 0) {
+        pin.fail("vertex " + std::to_string(v) + " is already pinned by " + object_path + ".pins[" +
+                 std::to_string(owner[v]) + "] (a vertex may belong to one pin group only)");
+      }
+      owner[v] = index;
+    }
+    if (auto script = pin.optional("script")) group.script = read_script(*script);
+    groups.push_back(std::move(group));
+  }
+  return groups;
+}
+
+Pressure read_pressure(const JsonNode& node, const TriMesh& rest) {
+  node.expect_keys({"model", "pressure"});
+  Pressure p;
+  std::string model = node.required("model").choice({"constant", "ideal_gas"}, "pressure model");
+  p.model = model == "constant" ? Pressure::Model::Constant : Pressure::Model::IdealGas;
+  p.pressure = node.required("pressure").number();
+  Topology topo = build_topology(rest);
+  if (!topo.closed()) {
+    int boundary = 0;
+    for (int count : topo.edge_face_count) boundary += (count == 1);
+    node.fail("needs a closed mesh, but the object's mesh has " + std::to_string(boundary) +
+              " boundary edges (use a closed mesh: icosphere, box, capped cylinder, or a closed OBJ)");
+  }
+  return p;
+}
+
+bool valid_name_char(char c) { return static_cast<unsigned char>(c) >= 0x20 && c != '/' && c != 0x7f; }
+
+SceneObject read_object(const JsonNode& node, int index, const std::string& base_dir, bool scene_has_wind) {
+  node.expect_keys({"name", "mesh", "transform", "initial_positions", "initial_velocity", "material", "pins",
+                    "pressure", "wind"});
+  SceneObject obj;
+  obj.name = "object_" + std::to_string(index);
+  if (auto name = node.optional("name")) {
+    obj.name = name->string();
+    if (obj.name.empty() || !std::all_of(obj.name.begin(), obj.name.end(), valid_name_char)) {
+      name->fail_got("must be a non-empty name without '/' or control characters");
+    }
+  }
+  JsonNode mesh_node = node.required("mesh");
+  TriMesh mesh = read_mesh(mesh_node, base_dir);
+  Transform transform;
+  if (auto t = node.optional("transform")) transform = read_transform(*t);
+  std::optional<Positions> posed;
+  if (auto ip = node.optional("initial_positions")) posed = read_posed(*ip, mesh, mesh_node.path(), base_dir);
+
+  transform.apply(mesh.V);
+  validate_mesh(mesh, node.file() + ": " + mesh_node.path());
+  obj.rest = std::move(mesh);
+  if (posed) {
+    transform.apply(*posed);
+    obj.initial = std::move(*posed);
+  } else {
+    obj.initial = obj.rest.V;
+  }
+
+  if (auto v = node.optional("initial_velocity")) obj.initial_velocity = v->vec3();
+  obj.material = read_material(node.required("material"));
+  if (auto pins = node.optional("pins")) obj.pins = read_pins(*pins, obj.initial, node.path());
+  if (auto p = node.optional("pressure")) obj.pressure = read_pressure(*p, obj.rest);
+  if (auto w = node.optional("wind")) {
+    obj.wind = w->boolean();
+    if (obj.wind && !scene_has_wind) w->fail("is true but the scene has no top-level \"wind\" section");
+  }
+  return obj;
+}
+
+Wind read_wind(const JsonNode& node) {
+  node.expect_keys({"air_velocity", "air_density", "drag_coefficient", "gust_amplitude", "gust_frequency"});
+  Wind w;
+  w.air_velocity = node.required("air_velocity").vec3();
+  if (auto v = node.optional("air_density")) w.air_density = v->positive();
+  if (auto v = node.optional("drag_coefficient")) w.drag_coefficient = v->at_least(0.0);
+  if (auto v = node.optional("gust_amplitude")) w.gust_amplitude = v->at_least(0.0);
+  if (auto v = node.optional("gust_frequency")) w.gust_frequency = v->at_least(0.0);
+  return w;
+}
+
+SolverSettings read_solver(const JsonNode& node) {
+  node.expect_keys({"tolerance", "max_newton_iterations", "hessian_projection"});
+  SolverSettings s;
+  if (auto v = node.optional("tolerance")) s.tolerance = v->positive();
+  if (auto v = node.optional("max_newton_iterations")) s.max_newton_iterations = as_int(v->integer(1, 1000000));
+  if (auto v = node.optional("hessian_projection")) {
+    parse_hessian_projection(v->choice({"none", "clamp", "abs"}, "Hessian projection"), s.projection);
+  }
+  return s;
+}
+
+void check_format_version(const JsonNode& root) {
+  if (!root.json().is_object()) root.fail_got("a scene file must hold a JSON object {...}");
+  const std::string expected = "this reader understands format_version " + std::to_string(kFormatVersion);
+  auto v = root.optional("format_version");
+  if (!v) throw InputError(root.file() + ": format_version: required key is missing (" + expected + ")");
+  const Json& j = v->json();
+  bool ok = (j.is_number_integer() && j.get<long long>() == kFormatVersion) ||
+            (j.is_number_float() && j.get<double>() == static_cast<double>(kFormatVersion));
+  if (!ok) v->fail_got("unsupported value (" + expected + ")");
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& json_text, const std::string& path_for_messages, const std::string& base_dir) {
+  const std::string& file = path_for_messages;
+  const Json doc = scene_json::parse_json_text(json_text, file);
+  const JsonNode root(doc, "", file);
+  check_format_version(root);
+  root.expect_keys({"format_version", "name", "description", "time_step", "frames", "gravity", "solver", "wind",
+                    "objects"});
+
+  Scene scene;
+  scene.source_path = path_for_messages;
+  scene.json_text = json_text;
+  scene.name = fs::path(path_for_messages).stem().string();
+  if (scene.name.empty()) scene.name = "scene";
+  if (auto name = root.optional("name")) {
+    scene.name = name->string();
+    if (scene.name.empty()) name->fail_got("must be a non-empty string");
+  }
+  if (auto d = root.optional("description")) d->string();
+  scene.time_step = root.required("time_step").positive();
+  scene.frames = as_int(root.required("frames").integer(1, kMaxFrames));
+  if (auto g = root.optional("gravity")) scene.gravity = g->vec3();
+  if (auto s = root.optional("solver")) scene.solver = read_solver(*s);
+  if (auto w = root.optional("wind")) scene.wind = read_wind(*w);
+
+  JsonNode objects = root.required("objects");
+  std::vector<JsonNode> list = objects.elements();
+  if (list.empty()) objects.fail_got("must list at least one object");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    SceneObject obj = read_object(list[i], static_cast<int>(i), base_dir, scene.wind.has_value());
+    for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+      if (scene.objects[k].name == obj.name) {
+        JsonNode where = list[i].has("name") ? list[i].required("name") : list[i];
+        where.fail("duplicate object name \"" + obj.name + "\", also used by " + list[k].path());
+      }
+    }
+    scene.objects.push_back(std::move(obj));
+  }
+  return scene;
+}
+
+Scene load_scene(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw InputError(path + ": is a directory, not a scene file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open scene file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InputError(path + ": cannot read scene file");
+  return parse_scene(text.str(), path, fs::path(path).parent_path().string());
+}
+
+}  // namespace pd

@@ -1,0 +1,362 @@
+#include "store/frame_store.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+
+// One test edits a file with the HDF5 C API directly (tests/CMakeLists.txt puts HDF5's headers on
+// the test target's include path).
+#include <hdf5.h>
+
+namespace pd {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool bits_equal(const double* a, const double* b, Eigen::Index n) {
+  return std::memcmp(a, b, sizeof(double) * static_cast<size_t>(n)) == 0;
+}
+
+Positions random_positions(int n, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  Positions X(n, 3);
+  for (Eigen::Index i = 0; i < X.size(); ++i) X.data()[i] = u(rng);
+  X(0, 0) = -0.0;  // sign of zero, extreme and non-terminating values must survive
+  X(0, 1) = 1e-300;
+  X(0, 2) = 1.0 / 3.0;
+  return X;
+}
+
+// A strip of n x 2 vertices and its 2 (n - 1) triangles.
+Faces strip_faces(int n) {
+  Faces F(2 * (n - 1), 3);
+  for (int i = 0; i + 1 < n; ++i) {
+    F.row(2 * i) << 2 * i, 2 * i + 1, 2 * i + 2;
+    F.row(2 * i + 1) << 2 * i + 1, 2 * i + 3, 2 * i + 2;
+  }
+  return F;
+}
+
+FrameStats make_stats(int t, int num_objects) {
+  FrameStats s;
+  s.scalars = {{"newton_iterations", t + 1.0}, {"kinetic_energy", 0.1 * t + 1e-17}, {"solve_seconds", t / 7.0}};
+  s.center_of_mass = ObjectPoints::Constant(num_objects, 3, t * 0.25);
+  return s;
+}
+
+template <typename F>
+std::string input_error_of(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no InputError thrown)";
+}
+
+class FrameStoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("pd_frame_store_" + std::to_string(getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    path_ = (dir_ / "frames.h5").string();
+    rest0_ = random_positions(6, rng_);  // level 0: 3 x 2 strip, one object
+    rest1_ = random_positions(10, rng_);  // level 1: two objects of 4 and 6 vertices
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // A file with levels 0 and 1 for frames 0..last_frame; nothing written yet.
+  FrameWriter make_writer(int last_frame, const std::string& scene = "{\"name\": \"flag\"}") {
+    FrameWriter w = FrameWriter::create(path_, scene, last_frame);
+    w.add_level(0, rest0_, strip_faces(3), {0, 6}, {"cloth"});
+    w.add_level(1, rest1_, strip_faces(5), {0, 4, 10}, {"cloth", "sphere"});
+    return w;
+  }
+
+  fs::path dir_;
+  std::string path_;
+  std::mt19937_64 rng_{42};
+  Positions rest0_, rest1_;
+};
+
+TEST_F(FrameStoreTest, RoundTripIsBitExactForPositionsFacesRestAndStats) {
+  std::string scene = "{\"text\": \"\xc3\xa9t\xc3\xa9\", \"pad\": \"" + std::string(200000, 'x') + "\"}";
+  std::vector<Positions> frames;
+  {
+    FrameWriter w = make_writer(3, scene);
+    for (int t = 0; t <= 3; ++t) {
+      frames.push_back(random_positions(10, rng_));
+      w.write_frame(1, t, frames.back(), make_stats(t, 2));
+    }
+    w.close();
+  }
+  FrameReader r(path_);
+  EXPECT_EQ(r.format_version(), kFrameFormatVersion);
+  EXPECT_EQ(r.scene_json(), scene);
+  ASSERT_EQ(r.num_levels(), 2);
+  EXPECT_EQ(r.num_frames(), 4);
+  EXPECT_EQ(r.num_vertices(1), 10);
+  EXPECT_EQ(r.num_objects(1), 2);
+  Positions rest = r.rest_positions(1);
+  EXPECT_TRUE(bits_equal(rest.data(), rest1_.data(), rest1_.size()));
+  EXPECT_EQ(r.faces(1), strip_faces(5));
+  EXPECT_EQ(r.faces(0), strip_faces(3));
+  EXPECT_EQ(r.object_offsets(1), (std::vector<int>{0, 4, 10}));
+  EXPECT_EQ(r.object_names(1), (std::vector<std::string>{"cloth", "sphere"}));
+  EXPECT_EQ(r.object_names(0), (std::vector<std::string>{"cloth"}));
+  for (int t = 0; t <= 3; ++t) {
+    Positions X = r.frame(1, t);
+    ASSERT_EQ(X.rows(), 10);
+    EXPECT_TRUE(bits_equal(X.data(), frames[t].data(), X.size())) << "frame " << t;
+    EXPECT_EQ(r.center_of_mass(1, t), ObjectPoints::Constant(2, 3, t * 0.25));
+  }
+  EXPECT_EQ(r.stat_names(1), (std::vector<std::string>{"kinetic_energy", "newton_iterations", "solve_seconds"}));
+  for (int t = 0; t <= 3; ++t) {
+    FrameStats expected = make_stats(t, 2);
+    for (const auto& [name, value] : expected.scalars) {
+      double got = r.stat(1, name)[t];
+      EXPECT_TRUE(bits_equal(&got, &value, 1)) << name << " at frame " << t;
+    }
+  }
+}
+
+TEST_F(FrameStoreTest, DoneFlagsOnlyForWrittenFrames) {
+  {
+    FrameWriter w = make_writer(5);
+    w.write_frame(0, 0, rest0_, {});
+    w.write_frame(0, 2, rest0_, {});
+    w.write_frame(1, 5, rest1_, {});
+  }
+  FrameReader r(path_);
+  EXPECT_EQ(r.done(0), (std::vector<uint8_t>{1, 0, 1, 0, 0, 0}));
+  EXPECT_EQ(r.done(1), (std::vector<uint8_t>{0, 0, 0, 0, 0, 1}));
+}
+
+TEST_F(FrameStoreTest, FramesWrittenOutOfOrderReadBackInPlace) {
+  std::vector<Positions> frames(5);
+  {
+    FrameWriter w = make_writer(4);
+    for (int t : {3, 0, 4, 1, 2}) {
+      frames[t] = random_positions(6, rng_);
+      w.write_frame(0, t, frames[t], make_stats(t, 1));
+    }
+    frames[3] = random_positions(6, rng_);  // writing a frame again replaces it
+    w.write_frame(0, 3, frames[3], make_stats(3, 1));
+  }
+  FrameReader r(path_);
+  EXPECT_EQ(r.done(0), std::vector<uint8_t>(5, 1));
+  for (int t = 0; t < 5; ++t) {
+    Positions X = r.frame(0, t);
+    EXPECT_TRUE(bits_equal(X.data(), frames[t].data(), X.size())) << "frame " << t;
+    EXPECT_EQ(r.stat(0, "newton_iterations")[t], t + 1.0);
+  }
+}
+
+TEST_F(FrameStoreTest, ReopeningAFileAndReadingAgain) {
+  Positions X = random_positions(10, rng_);
+  {
+    FrameWriter w = make_writer(2);
+    w.write_frame(1, 1, X, make_stats(1, 2));
+  }  // destroyed without close(): the destructor closes the file
+  for (int round = 0; round < 2; ++round) {
+    FrameReader r(path_);
+    EXPECT_EQ(r.num_frames(), 3);
+    Positions Y = r.frame(1, 1);
+    EXPECT_TRUE(bits_equal(X.data(), Y.data(), X.size()));
+  }
+  FrameReader a(path_), b(path_);  // two readers at once
+  EXPECT_EQ(a.done(1), b.done(1));
+}
+
+TEST_F(FrameStoreTest, StatsAreNaNForUnwrittenFrames) {
+  {
+    FrameWriter w = make_writer(4);
+    w.write_frame(0, 1, rest0_, make_stats(1, 1));
+    w.write_frame(0, 3, rest0_, make_stats(3, 1));
+  }
+  FrameReader r(path_);
+  std::vector<double> it = r.stat(0, "newton_iterations");
+  ASSERT_EQ(it.size(), 5u);
+  EXPECT_TRUE(std::isnan(it[0]));
+  EXPECT_EQ(it[1], 2.0);
+  EXPECT_TRUE(std::isnan(it[2]));
+  EXPECT_EQ(it[3], 4.0);
+  EXPECT_TRUE(std::isnan(it[4]));
+  EXPECT_TRUE(r.stat_names(1).empty());
+  EXPECT_TRUE(r.center_of_mass(0, 1).isApproxToConstant(0.25));
+}
+
+TEST_F(FrameStoreTest, StatIntroducedAtFrame5IsNaNBefore) {
+  {
+    FrameWriter w = make_writer(7);
+    for (int t = 0; t <= 7; ++t) {
+      FrameStats s = make_stats(t, 2);
+      if (t >= 5) s.scalars.emplace_back("energy_contact", 10.0 * t);
+      if (t == 6) s.center_of_mass.resize(0, 3);  // not computed for this frame
+      w.write_frame(1, t, rest1_, s);
+    }
+  }
+  FrameReader r(path_);
+  std::vector<double> e = r.stat(1, "energy_contact");
+  for (int t = 0; t < 5; ++t) EXPECT_TRUE(std::isnan(e[t])) << "frame " << t;
+  for (int t = 5; t <= 7; ++t) EXPECT_EQ(e[t], 10.0 * t);
+  EXPECT_TRUE(r.center_of_mass(1, 6).array().isNaN().all());
+  EXPECT_EQ(r.center_of_mass(1, 7), ObjectPoints::Constant(2, 3, 7 * 0.25));
+}
+
+TEST_F(FrameStoreTest, MissingFileThrowsInputErrorWithPath) {
+  std::string missing = (dir_ / "nope.h5").string();
+  std::string msg = input_error_of([&] { FrameReader r(missing); });
+  EXPECT_NE(msg.find(missing + ": "), std::string::npos) << msg;
+  EXPECT_NE(msg.find("no such file"), std::string::npos) << msg;
+}
+
+TEST_F(FrameStoreTest, NotHdf5FileThrowsInputErrorWithPath) {
+  std::ofstream(path_, std::ios::binary) << std::string("this is not HDF5\0\x01\x02 garbage bytes", 34);
+  std::string msg = input_error_of([&] { FrameReader r(path_); });
+  EXPECT_NE(msg.find(path_ + ": "), std::string::npos) << msg;
+  EXPECT_NE(msg.find("not an HDF5 file"), std::string::npos) << msg;
+}
+
+TEST_F(FrameStoreTest, TruncatedFileThrowsInputErrorWithPath) {
+  {
+    FrameWriter w = make_writer(3);
+    for (int t = 0; t <= 3; ++t) w.write_frame(1, t, random_positions(10, rng_), make_stats(t, 2));
+  }
+  fs::resize_file(path_, fs::file_size(path_) / 2);
+  std::string msg = input_error_of([&] {
+    FrameReader r(path_);
+    for (int t = 0; t <= 3; ++t) r.frame(1, t);
+  });
+  EXPECT_EQ(msg.rfind(path_ + ": ", 0), 0u) << msg;
+}
+
+TEST_F(FrameStoreTest, FrameNotDoneOrOutOfRangeThrowsInputErrorWithPath) {
+  {
+    FrameWriter w = make_writer(3);
+    w.write_frame(0, 1, rest0_, {});
+  }
+  FrameReader r(path_);
+  std::string msg = input_error_of([&] { r.frame(0, 2); });
+  EXPECT_EQ(msg, path_ + ": /levels/0/positions: frame 2 of level 0 is not done");
+  msg = input_error_of([&] { r.frame(0, 4); });
+  EXPECT_NE(msg.find(path_ + ": "), std::string::npos) << msg;
+  EXPECT_NE(msg.find("out of range"), std::string::npos) << msg;
+  EXPECT_NE(input_error_of([&] { r.frame(0, -1); }).find("out of range"), std::string::npos);
+  EXPECT_NE(input_error_of([&] { r.center_of_mass(0, 3); }).find("not done"), std::string::npos);
+}
+
+TEST_F(FrameStoreTest, LevelOutOfRangeThrowsInputErrorWithPath) {
+  FrameWriter w = make_writer(2);
+  std::string msg = input_error_of([&] { w.write_frame(2, 0, rest1_, {}); });
+  EXPECT_EQ(msg, path_ + ": /levels/2: level out of range [0, 2)");
+  w.close();
+  FrameReader r(path_);
+  for (int level : {-1, 2}) {
+    EXPECT_NE(input_error_of([&] { r.frame(level, 0); }).find(path_ + ": "), std::string::npos);
+    EXPECT_NE(input_error_of([&] { r.faces(level); }).find("level out of range"), std::string::npos);
+    EXPECT_NE(input_error_of([&] { r.stat_names(level); }).find("level out of range"), std::string::npos);
+  }
+  msg = input_error_of([&] { r.stat(0, "no_such_stat"); });
+  EXPECT_EQ(msg, path_ + ": /levels/0/stats/no_such_stat: no such statistic");
+}
+
+TEST_F(FrameStoreTest, WriterRejectsInconsistentInput) {
+  FrameWriter w = FrameWriter::create(path_, "{}", 2);
+  auto fails = [&](auto&& f) { return input_error_of(f).rfind(path_ + ": ", 0) == 0; };
+  EXPECT_TRUE(fails([&] { w.add_level(1, rest0_, strip_faces(3), {0, 6}, {"a"}); }));      // out of order
+  EXPECT_TRUE(fails([&] { w.add_level(0, rest0_, strip_faces(3), {0, 5}, {"a"}); }));      // offsets end
+  EXPECT_TRUE(fails([&] { w.add_level(0, rest0_, strip_faces(3), {0, 6}, {}); }));         // no objects
+  EXPECT_TRUE(fails([&] { w.add_level(0, rest0_, strip_faces(4), {0, 6}, {"a"}); }));      // face index
+  w.add_level(0, rest0_, strip_faces(3), {0, 6}, {"a"});
+  EXPECT_TRUE(fails([&] { w.write_frame(0, 0, rest1_, {}); }));                           // vertex count
+  EXPECT_TRUE(fails([&] { w.write_frame(0, 3, rest0_, {}); }));                           // frame range
+  FrameStats bad;
+  bad.scalars = {{"a/b", 1.0}};
+  EXPECT_TRUE(fails([&] { w.write_frame(0, 0, rest0_, bad); }));
+  bad.scalars = {{"x", 1.0}, {"x", 2.0}};
+  EXPECT_TRUE(fails([&] { w.write_frame(0, 0, rest0_, bad); }));
+  bad.scalars.clear();
+  bad.center_of_mass = ObjectPoints::Zero(2, 3);
+  EXPECT_TRUE(fails([&] { w.write_frame(0, 0, rest0_, bad); }));
+  w.close();
+  EXPECT_TRUE(fails([&] { w.write_frame(0, 0, rest0_, {}); }));  // closed
+  FrameReader r(path_);
+  EXPECT_EQ(r.done(0), std::vector<uint8_t>(3, 0));  // nothing was written by the failed calls
+  EXPECT_TRUE(r.stat_names(0).empty());
+}
+
+TEST_F(FrameStoreTest, WrongFormatVersionOrMissingDatasetThrowsInputErrorNamingIt) {
+  make_writer(2).close();
+  hid_t file = H5Fopen(path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  ASSERT_GE(H5Ldelete(file, "/levels/1/done", H5P_DEFAULT), 0);
+  H5Fclose(file);
+  std::string msg = input_error_of([&] { FrameReader r(path_); });
+  EXPECT_EQ(msg.rfind(path_ + ": /levels/1/done: missing dataset", 0), 0u) << msg;
+
+  file = H5Fopen(path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  hid_t attr = H5Aopen(file, "format_version", H5P_DEFAULT);
+  int two = 2;
+  ASSERT_GE(H5Awrite(attr, H5T_NATIVE_INT, &two), 0);
+  H5Aclose(attr);
+  H5Fclose(file);
+  msg = input_error_of([&] { FrameReader r(path_); });
+  EXPECT_EQ(msg, path_ + ": /@format_version: format_version 2 unsupported (expected 1)");
+}
+
+TEST_F(FrameStoreTest, ExportWritesOneObjPerDoneFrameWithExactVertices) {
+  std::map<int, Positions> frames;
+  {
+    FrameWriter w = make_writer(6);
+    for (int t : {0, 1, 2, 4, 6}) {
+      frames[t] = random_positions(10, rng_);
+      w.write_frame(1, t, frames[t], make_stats(t, 2));
+    }
+  }
+  FrameReader r(path_);
+  fs::path out = dir_ / "obj" / "level1";
+  EXPECT_EQ(export_obj_frames(r, 1, out.string()), 5);
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(out)) {
+    (void)entry;
+    ++files;
+  }
+  EXPECT_EQ(files, 5);
+  for (const auto& [t, X] : frames) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.obj", t);
+    std::ifstream in(out / name);
+    ASSERT_TRUE(in) << name;
+    std::vector<double> values;
+    int face_lines = 0;
+    for (std::string line; std::getline(in, line);) {
+      std::istringstream ls(line);
+      std::string tag;
+      ls >> tag;
+      if (tag == "f") ++face_lines;
+      if (tag != "v") continue;
+      for (std::string word; ls >> word;) values.push_back(std::strtod(word.c_str(), nullptr));
+    }
+    ASSERT_EQ(values.size(), 30u) << name;
+    EXPECT_TRUE(bits_equal(values.data(), X.data(), 30)) << name;
+    EXPECT_EQ(face_lines, 8) << name;
+  }
+  EXPECT_FALSE(fs::exists(out / "frame_00003.obj"));
+  EXPECT_NE(input_error_of([&] { export_obj_frames(r, 5, out.string()); }).find("level out of range"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace pd
