@@ -57,7 +57,7 @@ double lerp_centred(double size, int i, int n) {
 
 }  // namespace
 
-TriMesh make_rectangle(double width, double height, int cells_x, int cells_y) {
+TriMesh make_rectangle(double width, double height, int cells_x, int cells_y, GridDiagonals diagonals) {
   require(positive_finite(width) && positive_finite(height), "make_rectangle", "width and height must be > 0");
   require(cells_x >= 1 && cells_y >= 1, "make_rectangle", "cells_x and cells_y must be >= 1");
   require_fits((cells_x + 1.0L) * (cells_y + 1.0L), 2.0L * cells_x * cells_y, "make_rectangle");
@@ -69,11 +69,19 @@ TriMesh make_rectangle(double width, double height, int cells_x, int cells_y) {
       points.emplace_back(lerp_centred(width, i, cells_x), lerp_centred(height, j, cells_y), 0.0);
   std::vector<std::array<int, 3>> faces;
   faces.reserve(2 * static_cast<std::size_t>(cells_x) * cells_y);
-  // Cell (i, j) with i + j even is split along (i, j)-(i+1, j+1), odd along (i+1, j)-(i, j+1).
+  // The last argument of add_quad selects the (i+1, j)-(i, j+1) diagonal ("down" in shapes.h).
+  auto down = [diagonals](int i, int j) {
+    switch (diagonals) {
+      case GridDiagonals::Checkerboard: return (i + j) % 2 == 1;
+      case GridDiagonals::Rows: return j % 2 == 1;
+      case GridDiagonals::Uniform: return false;
+    }
+    return false;
+  };
   for (int j = 0; j < cells_y; ++j)
     for (int i = 0; i < cells_x; ++i) {
       const int a = j * nx + i;
-      add_quad(faces, a, a + 1, a + 1 + nx, a + nx, (i + j) % 2 == 1);
+      add_quad(faces, a, a + 1, a + 1 + nx, a + nx, down(i, j));
     }
   return to_mesh(points, faces);
 }

@@ -6,12 +6,22 @@
 
 namespace pd {
 
+// How the quads of a rectangle grid are split into triangles. Cell (i, j) is split along
+// (i, j)-(i+1, j+1) ("up") or (i+1, j)-(i, j+1) ("down"):
+//   Checkerboard: up when i + j is even. No preferred shear direction for the membrane, but discrete
+//     hinge bending of a strip with free long edges relaxes into non-cylindrical shapes and comes out
+//     up to 1.25x too soft (measured on a clamped cantilever; see bending_hinge.h).
+//   Rows: up on even rows j, down on odd rows. Hinge bending along the grid is exact for strips
+//     (cantilever within 0.1% of plate theory); use it for beams and strips.
+//   Uniform: always up. Twist couples to bending (1.21x too soft a strip); for comparisons only.
+enum class GridDiagonals { Checkerboard, Rows, Uniform };
+
 // Rectangle in the x-y plane (z = 0), width along x, height along y, with `cells_x` by `cells_y`
-// quads, each split into two triangles along alternating diagonals (so the mesh has no preferred
-// shear direction). Vertex (i, j) (i along x, j along y) has index j * (cells_x + 1) + i.
-// Cell (i, j) is split along (i, j)-(i+1, j+1) when i + j is even, along (i+1, j)-(i, j+1) when odd.
-// Normals point along +z. (cells_x + 1) * (cells_y + 1) vertices, 2 * cells_x * cells_y faces.
-TriMesh make_rectangle(double width, double height, int cells_x, int cells_y);
+// quads split as `diagonals` says. Vertex (i, j) (i along x, j along y) has index
+// j * (cells_x + 1) + i. Normals point along +z. (cells_x + 1) * (cells_y + 1) vertices,
+// 2 * cells_x * cells_y faces.
+TriMesh make_rectangle(double width, double height, int cells_x, int cells_y,
+                       GridDiagonals diagonals = GridDiagonals::Checkerboard);
 
 // Icosphere of the given radius: an icosahedron subdivided `subdivisions` times (each time every
 // triangle splits in four) with vertices pushed to the sphere. 12 vertices at 0, 10*4^s + 2 after s.

@@ -91,14 +91,20 @@ TriMesh read_mesh(const JsonNode& mesh, const std::string& base_dir) {
   const std::string type = mesh.required("type").choice(
       {"rectangle", "rectangle_equilateral", "icosphere", "box", "cylinder", "obj"}, "mesh type");
   if (type == "rectangle") {
-    mesh.expect_keys({"type", "size", "cells"});
+    mesh.expect_keys({"type", "size", "cells", "diagonals"});
     auto size = mesh.required("size").elements(2);
     JsonNode cells_node = mesh.required("cells");
     auto cells = cells_node.elements(2);
     double w = size[0].positive(), h = size[1].positive();
     long long nx = cells[0].integer(1, 100000), ny = cells[1].integer(1, 100000);
+    GridDiagonals diagonals = GridDiagonals::Checkerboard;
+    if (auto d = mesh.optional("diagonals")) {
+      const std::string name = d->choice({"checkerboard", "rows", "uniform"}, "diagonal pattern");
+      diagonals = name == "rows" ? GridDiagonals::Rows
+                  : name == "uniform" ? GridDiagonals::Uniform : GridDiagonals::Checkerboard;
+    }
     check_vertex_budget(cells_node, (nx + 1) * (ny + 1));
-    return generate(mesh, [&] { return make_rectangle(w, h, as_int(nx), as_int(ny)); });
+    return generate(mesh, [&] { return make_rectangle(w, h, as_int(nx), as_int(ny), diagonals); });
   }
   if (type == "rectangle_equilateral") {
     mesh.expect_keys({"type", "size", "cells_x"});

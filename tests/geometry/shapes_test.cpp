@@ -84,9 +84,10 @@ TEST(Rectangle, CountsIndexingAndExtent) {
   EXPECT_EQ(vertex(m, (cx + 1) * (cy + 1) - 1), Vec3(1.0, 0.3, 0.0));
 }
 
-TEST(Rectangle, AlternatesDiagonalsAsDocumented) {
-  const int cx = 4, cy = 3, nx = cx + 1;
-  const TriMesh m = make_rectangle(1.0, 1.0, cx, cy);
+// Checks every cell's diagonal against `up(i, j)`: true = (i, j)-(i+1, j+1), false = (i+1, j)-(i, j+1).
+template <class Up>
+void expect_diagonals(const TriMesh& m, int cx, int cy, Up up) {
+  const int nx = cx + 1;
   const Topology t = build_topology(m);
   auto has_edge = [&](int a, int b) {
     const std::array<int, 2> e{std::min(a, b), std::max(a, b)};
@@ -95,10 +96,19 @@ TEST(Rectangle, AlternatesDiagonalsAsDocumented) {
   for (int j = 0; j < cy; ++j)
     for (int i = 0; i < cx; ++i) {
       const int a = j * nx + i;  // corners a (i,j), b (i+1,j), c (i+1,j+1), d (i,j+1)
-      const bool even = (i + j) % 2 == 0;
-      EXPECT_EQ(has_edge(a, a + nx + 1), even) << "cell " << i << "," << j;
-      EXPECT_EQ(has_edge(a + 1, a + nx), !even) << "cell " << i << "," << j;
+      EXPECT_EQ(has_edge(a, a + nx + 1), up(i, j)) << "cell " << i << "," << j;
+      EXPECT_EQ(has_edge(a + 1, a + nx), !up(i, j)) << "cell " << i << "," << j;
     }
+}
+
+TEST(Rectangle, AlternatesDiagonalsAsDocumented) {
+  expect_diagonals(make_rectangle(1.0, 1.0, 4, 3), 4, 3, [](int i, int j) { return (i + j) % 2 == 0; });
+}
+
+TEST(Rectangle, RowsPatternAlternatesDiagonalsByRowAndUniformNever) {
+  expect_diagonals(make_rectangle(1.0, 1.0, 4, 3, GridDiagonals::Rows), 4, 3,
+                   [](int, int j) { return j % 2 == 0; });
+  expect_diagonals(make_rectangle(1.0, 1.0, 4, 3, GridDiagonals::Uniform), 4, 3, [](int, int) { return true; });
 }
 
 TEST(Rectangle, NormalsPointAlongZAndAreasSumToWidthTimesHeight) {

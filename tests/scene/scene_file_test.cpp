@@ -249,6 +249,20 @@ TEST(SceneFile, EveryMeshTypeBuildsAValidMesh) {
   }
 }
 
+TEST(SceneFile, RectangleDiagonalPatternIsReadAndUnknownPatternsAreRejected) {
+  json s = valid_scene();
+  s["objects"][0]["mesh"]["diagonals"] = "rows";
+  const TriMesh rows = parse(s).objects.at(0).rest;
+  const TriMesh expected = make_rectangle(1.0, 1.0, 4, 4, GridDiagonals::Rows);
+  EXPECT_EQ(rows.F, expected.F);
+  EXPECT_NE(parse(valid_scene()).objects.at(0).rest.F, expected.F) << "default stays checkerboard";
+  s["objects"][0]["mesh"]["diagonals"] = "diagonal";
+  const std::string msg = error_of([&] { parse(s); });
+  EXPECT_EQ(msg.rfind(kFile + ":", 0), 0u) << msg;
+  EXPECT_NE(msg.find("objects[0].mesh.diagonals"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("\"rows\""), std::string::npos) << msg;
+}
+
 TEST(SceneFile, InitialPositionsAreReadFromObjAndTransformedLikeTheRestMesh) {
   TempDir dir;
   TriMesh rest = make_rectangle(1.0, 1.0, 1, 1);
