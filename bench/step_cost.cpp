@@ -11,10 +11,12 @@
 
 #include "geometry/shapes.h"
 #include "progressive/level_stepper.h"
+#include "util/process_setup.h"
 
 using namespace pd;
 
 int main(int argc, char** argv) {
+  limit_openmp_threads(argv);
   std::vector<int> sizes = {31, 77, 157};
   if (argc > 1) {
     sizes.clear();

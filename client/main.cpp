@@ -7,8 +7,10 @@
 
 #include "commands.h"
 #include "util/input_error.h"
+#include "util/process_setup.h"
 
 int main(int argc, char** argv) {
+  pd::limit_openmp_threads(argv);
   CLI::App app{"pd: progressive cloth and shell animation"};
   app.require_subcommand(1);
 

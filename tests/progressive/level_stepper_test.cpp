@@ -134,6 +134,46 @@ TEST(LevelStepper, PressurisedSphereGrowsToTheStableVolumeOfTheNeoHookeanBalance
   EXPECT_LT(drift, 1e-6);
 }
 
+TEST(LevelStepper, NewtonConvergesQuadraticallyOnAHangingSheetStep) {
+  // A sheet hanging from its whole top edge (Poisson ratio 0, so it is in tension with no lateral
+  // compression: the potential is convex near the solution), 10 frames in; then one long step
+  // (h = 0.1 s, so Newton starts far from the solution) solved with the exact Hessian and a tight
+  // tolerance. Once the step is small, each Newton step must shrink at least quadratically.
+  // (Where cloth is compressed the potential is non-convex and projected Newton is only linear.)
+  Scene scene = make_scene(0.01, 10, Vec3(0, -9.81, 0));
+  Material mat = test::cotton();
+  mat.poisson_ratio = 0.0;
+  scene.objects.push_back(make_object("sheet", make_rectangle(1.0, 1.0, 10, 10), mat));
+  PinGroup pins;
+  for (int i = 110; i <= 120; ++i) pins.vertices.push_back(i);  // the top row
+  scene.objects[0].pins.push_back(pins);
+  SceneSystem sys = build_scene_system(scene);
+  LevelStepper stepper(sys, scene.solver, scene.time_step);
+  Eigen::VectorXd x = sys.x0, v = sys.v0;
+  for (int n = 0; n < scene.frames; ++n) stepper.step(n, x, v);
+
+  SolverSettings exact = scene.solver;
+  exact.projection = HessianProjection::None;
+  exact.tolerance = 1e-12;
+  LevelStepper exact_stepper(sys, exact, 0.1);
+  const FrameRecord r = exact_stepper.step(scene.frames, x, v);
+  const auto& m = r.newton.step_measures;
+  ASSERT_GE(m.size(), 3u) << r.newton.stop_reason;
+  int checked = 0;
+  for (size_t k = 1; k < m.size(); ++k) {
+    // Quadratic regime: relative to the first step, below 1e-2, and above round-off (1e-14).
+    const double prev = m[k - 1] / m[0], cur = m[k] / m[0];
+    if (prev < 1e-2 && cur > 1e-14) {
+      EXPECT_LT(cur, 10.0 * prev * prev) << "iteration " << k;
+      ++checked;
+    }
+  }
+  std::string trace;
+  char buf[32];
+  for (double s : m) trace += (std::snprintf(buf, sizeof buf, "%.3e ", s), buf);
+  EXPECT_GE(checked, 1) << "no iteration in the quadratic regime; step measures: " << trace;
+}
+
 TEST(LevelStepper, CurvedRestShapeStaysAtRestWithoutGravity) {
   // Rest dihedral angles come from the rest mesh, so a sphere has no bending force at rest.
   Scene scene = make_scene(0.01, 10, Vec3::Zero());
