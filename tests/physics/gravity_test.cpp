@@ -4,15 +4,10 @@
 #include <gtest/gtest.h>
 
 #include "support/finite_difference.h"
+#include "support/term_eval.h"
 
 namespace pd {
 namespace {
-
-Eigen::VectorXd gradient_of(const EnergyTerm& t, const Eigen::VectorXd& x) {
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(x.size());
-  t.add_gradient(x, g);
-  return g;
-}
 
 struct GravityFixture : ::testing::Test {
   Eigen::VectorXd masses;
@@ -37,7 +32,7 @@ TEST_F(GravityFixture, ValueIsMinusMassTimesGDotX) {
   for (int i = 0; i < 4; ++i) y.segment<3>(3 * i) += d;
   EXPECT_NEAR(term.value(y) - term.value(x), -6.5 * g.dot(d), 1e-12);
   // The force -gradient on each vertex is m g.
-  const Eigen::VectorXd grad = gradient_of(term, x);
+  const Eigen::VectorXd grad = test::term_gradient(term, x);
   for (int i = 0; i < 4; ++i)
     EXPECT_LT((-grad.segment<3>(3 * i) - masses[3 * i] * g).norm(), 1e-15);
 }
@@ -45,7 +40,7 @@ TEST_F(GravityFixture, ValueIsMinusMassTimesGDotX) {
 TEST_F(GravityFixture, GradientAndZeroHessianMatchFiniteDifferences) {
   const GravityTerm term(masses, g);
   auto f = [&](const Eigen::VectorXd& y) { return term.value(y); };
-  auto gr = [&](const Eigen::VectorXd& y) { return gradient_of(term, y); };
+  auto gr = [&](const Eigen::VectorXd& y) { return test::term_gradient(term, y); };
   const test::FdResult rg = test::check_gradient(f, x, gr(x));
   EXPECT_GT(rg.comparisons, 0);
   EXPECT_GE(rg.steps_within(1e-8), 2) << "best " << rg.best_rel_error;

@@ -2,15 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include "support/term_eval.h"
+
 namespace pd {
 namespace {
-
-Eigen::MatrixXd full_from_lower(const HessianAssembly::SparseMatrix& L) {
-  Eigen::MatrixXd D = Eigen::MatrixXd(L);
-  Eigen::MatrixXd S = D + D.transpose();
-  S.diagonal() = D.diagonal();
-  return S;
-}
 
 // Reference: scatter the element blocks into a dense matrix directly.
 template <int N>
@@ -45,7 +40,7 @@ TEST(HessianAssembly, MatchesDenseScatterOfOverlappingElements) {
   add_dense<3>(dense, {2, 1, 3}, H2);
   add_dense<4>(dense, {4, 0, 3, 1}, H3);
   dense.diagonal() += d;
-  EXPECT_LT((full_from_lower(L) - dense).norm(), 1e-12 * dense.norm());
+  EXPECT_LT((test::symmetric_from_lower(L) - dense).norm(), 1e-12 * dense.norm());
 }
 
 TEST(HessianAssembly, SecondAssemblyWithSameStencilsReusesPatternAndGivesNewValues) {
@@ -63,7 +58,7 @@ TEST(HessianAssembly, SecondAssemblyWithSameStencilsReusesPatternAndGivesNewValu
   EXPECT_FALSE(changed);
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(9, 9);
   add_dense<3>(dense, {0, 1, 2}, H);
-  EXPECT_LT((full_from_lower(L) - dense).norm(), 1e-12 * dense.norm());
+  EXPECT_LT((test::symmetric_from_lower(L) - dense).norm(), 1e-12 * dense.norm());
 
   asmb.begin(9);
   asmb.add<3>({0, 2, 1}, H);  // different stencil -> new pattern
@@ -78,7 +73,7 @@ TEST(HessianAssembly, FixedDofsGetIdentityRowsAndColumns) {
   std::vector<char> fixed(9, 0);
   fixed[3] = fixed[4] = fixed[5] = 1;  // vertex 1
   asmb.set_fixed_dofs(fixed);
-  const Eigen::MatrixXd S = full_from_lower(asmb.finish(nullptr));
+  const Eigen::MatrixXd S = test::symmetric_from_lower(asmb.finish(nullptr));
   for (int i = 3; i < 6; ++i)
     for (int j = 0; j < 9; ++j) {
       EXPECT_EQ(S(i, j), i == j ? 1.0 : 0.0);

@@ -5,26 +5,10 @@
 
 #include "physics/gravity.h"
 #include "support/finite_difference.h"
+#include "support/term_eval.h"
 
 namespace pd {
 namespace {
-
-Eigen::VectorXd gradient_of(const EnergyTerm& t, const Eigen::VectorXd& x) {
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(x.size());
-  t.add_gradient(x, g);
-  return g;
-}
-
-// The assembled Hessian as a full dense matrix (the assembly stores the lower triangle).
-Eigen::MatrixXd assembled(const EnergyTerm& t, const Eigen::VectorXd& x, HessianProjection p) {
-  HessianAssembly A;
-  A.begin(static_cast<int>(x.size()));
-  t.add_hessian(x, p, A);
-  const Eigen::MatrixXd L(A.finish(nullptr));
-  Eigen::MatrixXd H = L + L.transpose();
-  H.diagonal() = L.diagonal();
-  return H;
-}
 
 // 2 x 1 m rectangle in z = 0 with 2 x 2 cells (9 vertices, 8 triangles), built by hand.
 TriMesh small_sheet() {
@@ -92,17 +76,17 @@ TEST_F(InertiaFixture, ZeroAtPredictionAndGradientAndHessianMatchFiniteDifferenc
   const Eigen::VectorXd xhat = x0 + h * v0;
   EXPECT_NEAR((term.predicted_positions() - xhat).norm(), 0.0, 1e-15);
   EXPECT_EQ(term.value(xhat), 0.0);
-  EXPECT_EQ(gradient_of(term, xhat).norm(), 0.0);
+  EXPECT_EQ(test::term_gradient(term, xhat).norm(), 0.0);
 
   const Eigen::VectorXd x = xhat + 0.01 * Eigen::VectorXd::NullaryExpr(27, [](Eigen::Index i) {
     return std::cos(0.9 * i + 0.3);
   });
   auto f = [&](const Eigen::VectorXd& y) { return term.value(y); };
-  auto g = [&](const Eigen::VectorXd& y) { return gradient_of(term, y); };
+  auto g = [&](const Eigen::VectorXd& y) { return test::term_gradient(term, y); };
   const test::FdResult rg = test::check_gradient(f, x, g(x));
   EXPECT_GT(rg.comparisons, 0);
   EXPECT_GE(rg.steps_within(1e-7), 2) << "best " << rg.best_rel_error;
-  const Eigen::MatrixXd H = assembled(term, x, HessianProjection::None);
+  const Eigen::MatrixXd H = test::term_hessian(term, x, HessianProjection::None);
   const test::FdResult rh = test::check_hessian(g, x, H);
   EXPECT_GT(rh.comparisons, 0);
   EXPECT_GE(rh.steps_within(1e-8), 2) << "best " << rh.best_rel_error;
@@ -133,7 +117,7 @@ TEST_F(InertiaFixture, MinimiserUnderGravityIsImplicitEulerFreeFall) {
   for (int i = 0; i < 9; ++i) expected.segment<3>(3 * i) += h * h * g;
   EXPECT_LT((x1 - expected).cwiseAbs().maxCoeff(), 1e-14);
   // And it is a stationary point of the sum.
-  Eigen::VectorXd g1 = gradient_of(term, x1);
+  Eigen::VectorXd g1 = test::term_gradient(term, x1);
   gravity.add_gradient(x1, g1);
   EXPECT_LT(g1.cwiseAbs().maxCoeff(), 1e-9);
 }

@@ -14,29 +14,10 @@
 
 #include "physics/inertia.h"
 #include "support/finite_difference.h"
+#include "support/term_eval.h"
 
 namespace pd {
 namespace {
-
-Eigen::VectorXd gradient_of(const EnergyTerm& t, const Eigen::VectorXd& x) {
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(x.size());
-  t.add_gradient(x, g);
-  return g;
-}
-
-Eigen::MatrixXd assembled(const EnergyTerm& t, const Eigen::VectorXd& x, HessianProjection p) {
-  HessianAssembly A;
-  A.begin(static_cast<int>(x.size()));
-  t.add_hessian(x, p, A);
-  const Eigen::MatrixXd L(A.finish(nullptr));
-  Eigen::MatrixXd H = L + L.transpose();
-  H.diagonal() = L.diagonal();
-  return H;
-}
-
-Eigen::VectorXd wavy(Eigen::Index n, double a, double b) {
-  return Eigen::VectorXd::NullaryExpr(n, [=](Eigen::Index i) { return std::sin(a * i + b); });
-}
 
 // Regular icosahedron with vertices (0, +-1, +-phi) and cyclic permutations (edge 2), faces found as
 // the vertex triples at mutual distance 2 and oriented outward (it is convex around the origin).
@@ -125,7 +106,7 @@ TEST(EnclosedVolume, CubeAndIcosahedronMatchAnalyticVolumes) {
 struct PressureFixture : ::testing::Test {
   TriMesh mesh = icosahedron();
   Eigen::VectorXd x0 = 0.1 * stacked(mesh.V);                  // the term's initial shape
-  Eigen::VectorXd x = x0 + 0.01 * wavy(36, 1.7, 0.3);           // a deformed configuration
+  Eigen::VectorXd x = x0 + 0.01 * test::wavy(36, 1.7, 0.3);           // a deformed configuration
   Pressure constant{Pressure::Model::Constant, 1500.0};
   Pressure gas{Pressure::Model::IdealGas, 1500.0};
 };
@@ -139,7 +120,7 @@ TEST_F(PressureFixture, InvariantUnderRigidMotion) {
     const PressureTerm term(mesh.F, x0, p);
     EXPECT_NEAR(term.volume(y), term.volume(x), 1e-15);
     EXPECT_NEAR(term.value(y), term.value(x), 1e-12 * std::abs(term.value(x)));
-    const Eigen::VectorXd gx = gradient_of(term, x), gy = gradient_of(term, y);
+    const Eigen::VectorXd gx = test::term_gradient(term, x), gy = test::term_gradient(term, y);
     Vec3 net_force = Vec3::Zero(), net_torque = Vec3::Zero();
     for (int i = 0; i < 12; ++i) {
       EXPECT_LT((gy.segment<3>(3 * i) - R * gx.segment<3>(3 * i)).norm(), 1e-12 * gx.norm());
@@ -161,18 +142,18 @@ TEST_F(PressureFixture, PressureLawsAndScalingIdentity) {
   EXPECT_EQ(c.pressure_at(2.0 * V0), 1500.0);
   EXPECT_NEAR(c.value(x), -1500.0 * V, 1e-12);
   EXPECT_NEAR(g.value(x), -1500.0 * V0 * std::log(V), 1e-12);
-  EXPECT_NEAR(gradient_of(c, x).dot(x), -3.0 * 1500.0 * V, 1e-10);
-  EXPECT_NEAR(gradient_of(g, x).dot(x), -3.0 * 1500.0 * V0, 1e-10);
+  EXPECT_NEAR(test::term_gradient(c, x).dot(x), -3.0 * 1500.0 * V, 1e-10);
+  EXPECT_NEAR(test::term_gradient(g, x).dot(x), -3.0 * 1500.0 * V0, 1e-10);
 }
 
 TEST_F(PressureFixture, ConstantModelGradientAndHessianMatchFiniteDifferences) {
   const PressureTerm term(mesh.F, x0, constant);
   auto f = [&](const Eigen::VectorXd& y) { return term.value(y); };
-  auto g = [&](const Eigen::VectorXd& y) { return gradient_of(term, y); };
+  auto g = [&](const Eigen::VectorXd& y) { return test::term_gradient(term, y); };
   const test::FdResult rg = test::check_gradient(f, x, g(x));
   EXPECT_GT(rg.comparisons, 0);
   EXPECT_GE(rg.steps_within(1e-7), 2) << "best " << rg.best_rel_error;
-  const Eigen::MatrixXd H = assembled(term, x, HessianProjection::None);
+  const Eigen::MatrixXd H = test::term_hessian(term, x, HessianProjection::None);
   const test::FdResult rh = test::check_hessian(g, x, H);
   EXPECT_GT(rh.comparisons, 0);
   EXPECT_GE(rh.steps_within(1e-7), 2) << "best " << rh.best_rel_error;
@@ -184,7 +165,7 @@ TEST_F(PressureFixture, ConstantModelGradientAndHessianMatchFiniteDifferences) {
 TEST_F(PressureFixture, IdealGasExactHessianMatchesFiniteDifferences) {
   const PressureTerm term(mesh.F, x0, gas);
   auto f = [&](const Eigen::VectorXd& y) { return term.value(y); };
-  auto g = [&](const Eigen::VectorXd& y) { return gradient_of(term, y); };
+  auto g = [&](const Eigen::VectorXd& y) { return test::term_gradient(term, y); };
   const test::FdResult rg = test::check_gradient(f, x, g(x));
   EXPECT_GT(rg.comparisons, 0);
   EXPECT_GE(rg.steps_within(1e-7), 2) << "best " << rg.best_rel_error;
@@ -196,7 +177,7 @@ TEST_F(PressureFixture, IdealGasExactHessianMatchesFiniteDifferences) {
   const double V = term.volume(x);
   const Eigen::VectorXd gV = g(x) / (-1500.0 * enclosed_volume(mesh.F, x0) / V);
   const Eigen::MatrixXd rank_one = 1500.0 * term.initial_volume() / (V * V) * gV * gV.transpose();
-  EXPECT_LT((assembled(term, x, HessianProjection::None) - (H - rank_one)).norm(), 1e-12 * H.norm());
+  EXPECT_LT((test::term_hessian(term, x, HessianProjection::None) - (H - rank_one)).norm(), 1e-12 * H.norm());
   std::printf("pressure (ideal gas): gradient FD rel err %.2e, exact Hessian FD rel err %.2e\n",
               rg.best_rel_error, rh.best_rel_error);
 }
@@ -204,9 +185,9 @@ TEST_F(PressureFixture, IdealGasExactHessianMatchesFiniteDifferences) {
 TEST_F(PressureFixture, ExactHessianIsIndefiniteProjectedIsPsd) {
   const PressureTerm term(mesh.F, x0, constant);
   const Eigen::VectorXd lo_none =
-      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(assembled(term, x, HessianProjection::None)).eigenvalues();
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(test::term_hessian(term, x, HessianProjection::None)).eigenvalues();
   const Eigen::VectorXd lo_clamp =
-      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(assembled(term, x, HessianProjection::Clamp)).eigenvalues();
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(test::term_hessian(term, x, HessianProjection::Clamp)).eigenvalues();
   EXPECT_LT(lo_none.minCoeff(), -1e-3 * lo_none.maxCoeff());
   EXPECT_GT(lo_clamp.minCoeff(), -1e-10 * lo_clamp.maxCoeff());
 }
@@ -296,13 +277,13 @@ TEST(PressureTerm, BalloonNewtonConverges) {
       Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
       inertia.add_gradient(x, g);
       gas.add_gradient(x, g);
-      Eigen::MatrixXd H = assembled(inertia, x, HessianProjection::None);
+      Eigen::MatrixXd H = test::term_hessian(inertia, x, HessianProjection::None);
       if (mode == Mode::Exact) {
         H += gas.dense_hessian_for_tests(x);
       } else {
-        H += assembled(gas, x, HessianProjection::Clamp);
+        H += test::term_hessian(gas, x, HessianProjection::Clamp);
         if (mode == Mode::ProjectedPlusRankOne)
-          H += gas.dense_hessian_for_tests(x) - assembled(gas, x, HessianProjection::None);
+          H += gas.dense_hessian_for_tests(x) - test::term_hessian(gas, x, HessianProjection::None);
       }
       springs.add(x, mode != Mode::Exact, g, H);
       if (g0 < 0) g0 = g.norm();

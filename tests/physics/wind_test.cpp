@@ -6,29 +6,10 @@
 #include <gtest/gtest.h>
 
 #include "support/finite_difference.h"
+#include "support/term_eval.h"
 
 namespace pd {
 namespace {
-
-Eigen::VectorXd gradient_of(const EnergyTerm& t, const Eigen::VectorXd& x) {
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(x.size());
-  t.add_gradient(x, g);
-  return g;
-}
-
-Eigen::MatrixXd assembled(const EnergyTerm& t, const Eigen::VectorXd& x, HessianProjection p) {
-  HessianAssembly A;
-  A.begin(static_cast<int>(x.size()));
-  t.add_hessian(x, p, A);
-  const Eigen::MatrixXd L(A.finish(nullptr));
-  Eigen::MatrixXd H = L + L.transpose();
-  H.diagonal() = L.diagonal();
-  return H;
-}
-
-Eigen::VectorXd wavy(Eigen::Index n, double a, double b) {
-  return Eigen::VectorXd::NullaryExpr(n, [=](Eigen::Index i) { return std::sin(a * i + b); });
-}
 
 // Square plate of side L centred at c, spanned by orthonormal e1, e2 (normal e1 x e2), as two
 // triangles (0,1,2), (0,2,3): vertices 0 and 2 carry both triangles.
@@ -76,8 +57,8 @@ struct WindFixture : ::testing::Test {
     xs.resize(27);
     for (int j = 0; j < 3; ++j)
       for (int i = 0; i < 3; ++i) xs.segment<3>(3 * (3 * j + i)) = Vec3(0.4 * i, 0.4 * j, 0.0);
-    xs += 0.05 * wavy(27, 1.3, 0.2);
-    vs = 2.0 * wavy(27, 0.7, 1.1);
+    xs += 0.05 * test::wavy(27, 1.3, 0.2);
+    vs = 2.0 * test::wavy(27, 0.7, 1.1);
     params.air_velocity = Vec3(3.0, -1.0, 5.0);
     params.air_density = 1.2;
     params.drag_coefficient = 1.3;
@@ -90,13 +71,13 @@ TEST_F(WindFixture, GradientAndHessianMatchFiniteDifferencesAndArePsd) {
   WindTerm term(F, params);
   EXPECT_EQ(term.name(), "wind");
   term.begin_step(StepStart{t_end, h, &xs, &vs});
-  const Eigen::VectorXd x = xs + h * vs + 0.003 * wavy(27, 2.1, 0.4);
+  const Eigen::VectorXd x = xs + h * vs + 0.003 * test::wavy(27, 2.1, 0.4);
   auto f = [&](const Eigen::VectorXd& y) { return term.value(y); };
-  auto g = [&](const Eigen::VectorXd& y) { return gradient_of(term, y); };
+  auto g = [&](const Eigen::VectorXd& y) { return test::term_gradient(term, y); };
   const test::FdResult rg = test::check_gradient(f, x, g(x));
   EXPECT_GT(rg.comparisons, 0);
   EXPECT_GE(rg.steps_within(1e-7), 2) << "best " << rg.best_rel_error;
-  const Eigen::MatrixXd H = assembled(term, x, HessianProjection::None);
+  const Eigen::MatrixXd H = test::term_hessian(term, x, HessianProjection::None);
   const test::FdResult rh = test::check_hessian(g, x, H);
   EXPECT_GT(rh.comparisons, 0);
   EXPECT_GE(rh.steps_within(1e-7), 2) << "best " << rh.best_rel_error;
@@ -106,7 +87,7 @@ TEST_F(WindFixture, GradientAndHessianMatchFiniteDifferencesAndArePsd) {
   // Already PSD: projection changes nothing beyond round-off, and the potential is >= 0.
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
   EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-10 * eig.eigenvalues().maxCoeff());
-  EXPECT_LT((assembled(term, x, HessianProjection::Clamp) - H).norm(), 1e-10 * H.norm());
+  EXPECT_LT((test::term_hessian(term, x, HessianProjection::Clamp) - H).norm(), 1e-10 * H.norm());
   EXPECT_GT(term.value(x), 0.0);
 }
 
@@ -125,10 +106,10 @@ TEST_F(WindFixture, DependsOnlyOnRelativeVelocity) {
   WindTerm a(F, params), b(F, moved);
   a.begin_step(StepStart{t_end, h, &xs, &vs});
   b.begin_step(StepStart{t_end, h, &xs, &vs_moved});
-  const Eigen::VectorXd x = xs + h * vs + 0.003 * wavy(27, 2.1, 0.4);
+  const Eigen::VectorXd x = xs + h * vs + 0.003 * test::wavy(27, 2.1, 0.4);
   EXPECT_NEAR(a.value(x), b.value(x + dx), 1e-12 * a.value(x));
-  const Eigen::VectorXd ga = gradient_of(a, x);
-  EXPECT_LT((ga - gradient_of(b, x + dx)).norm(), 1e-12 * ga.norm());
+  const Eigen::VectorXd ga = test::term_gradient(a, x);
+  EXPECT_LT((ga - test::term_gradient(b, x + dx)).norm(), 1e-12 * ga.norm());
   EXPECT_GT(ga.norm(), 0.0);
 }
 
@@ -149,7 +130,7 @@ TEST(Wind, FlatPlateMovingNormalToItselfFeelsQuadraticDrag) {
   const double u = s - p.n.dot(params.air_velocity);
   ASSERT_GT(std::abs(u), 1.0);
   const Vec3 expected = -0.5 * 1.2 * 1.1 * p.area * std::abs(u) * u * p.n;
-  const Eigen::VectorXd grad = gradient_of(term, p.x + h * v);
+  const Eigen::VectorXd grad = test::term_gradient(term, p.x + h * v);
   EXPECT_LT((total_force(grad) - expected).norm(), 1e-12 * expected.norm());
   const double share[4] = {1.0 / 3, 1.0 / 6, 1.0 / 3, 1.0 / 6};
   for (int i = 0; i < 4; ++i)
@@ -175,7 +156,7 @@ TEST(Wind, PlateAtRestIsPushedByGustAtEndOfStep) {
   EXPECT_LT((term.air_velocity(t_end) - w).norm(), 1e-14);
   const double wn = p.n.dot(w);
   const Vec3 expected = 0.5 * 1.2 * 1.0 * p.area * std::abs(wn) * wn * p.n;
-  EXPECT_LT((total_force(gradient_of(term, p.x)) - expected).norm(), 1e-12 * expected.norm());
+  EXPECT_LT((total_force(test::term_gradient(term, p.x)) - expected).norm(), 1e-12 * expected.norm());
 }
 
 // Air flowing along the plate: no force at rest; the lagged coefficient falls back to the floor
@@ -189,12 +170,12 @@ TEST(Wind, EdgeOnAirGivesNoForceAndFloorDrag) {
   const Eigen::VectorXd v = Eigen::VectorXd::Zero(12);
   WindTerm term(p.F, params);
   term.begin_step(StepStart{0.0, h, &p.x, &v});
-  EXPECT_LT(total_force(gradient_of(term, p.x)).norm(), 1e-12);
+  EXPECT_LT(total_force(test::term_gradient(term, p.x)).norm(), 1e-12);
   Eigen::VectorXd x = p.x;
   const double s = 0.2;  // end-of-step normal speed, m/s
   for (int i = 0; i < 4; ++i) x.segment<3>(3 * i) += h * s * p.n;
   const Vec3 expected = -0.5 * 1.2 * 1.0 * p.area * WindTerm::kMinRelativeSpeed * s * p.n;
-  EXPECT_LT((total_force(gradient_of(term, x)) - expected).norm(), 1e-12 * expected.norm());
+  EXPECT_LT((total_force(test::term_gradient(term, x)) - expected).norm(), 1e-12 * expected.norm());
 }
 
 }  // namespace
