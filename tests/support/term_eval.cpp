@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <gtest/gtest.h>
+
 namespace pd::test {
 
 Eigen::VectorXd term_gradient(const EnergyTerm& term, const Eigen::VectorXd& x) {
@@ -26,6 +28,23 @@ Eigen::MatrixXd term_hessian(const EnergyTerm& term, const Eigen::VectorXd& x, H
 
 Eigen::VectorXd wavy(Eigen::Index n, double a, double b) {
   return Eigen::VectorXd::NullaryExpr(n, [=](Eigen::Index i) { return std::sin(a * double(i) + b); });
+}
+
+TermFdCheck check_term_derivatives(const EnergyTerm& term, const Eigen::VectorXd& x) {
+  auto f = [&](const Eigen::VectorXd& y) { return term.value(y); };
+  auto g = [&](const Eigen::VectorXd& y) { return term_gradient(term, y); };
+  TermFdCheck c;
+  c.gradient = check_gradient(f, x, g(x));
+  c.H = term_hessian(term, x, HessianProjection::None);
+  c.hessian = check_hessian(g, x, c.H);
+  return c;
+}
+
+void expect_derivatives_match(const TermFdCheck& c, double gradient_tolerance, double hessian_tolerance) {
+  EXPECT_GT(c.gradient.comparisons, 0);
+  EXPECT_GE(c.gradient.steps_within(gradient_tolerance), 2) << "best " << c.gradient.best_rel_error;
+  EXPECT_GT(c.hessian.comparisons, 0);
+  EXPECT_GE(c.hessian.steps_within(hessian_tolerance), 2) << "best " << c.hessian.best_rel_error;
 }
 
 }  // namespace pd::test
