@@ -12,6 +12,7 @@
 #include "geometry/obj_io.h"
 #include "geometry/shapes.h"
 #include "geometry/topology.h"
+#include "physics/pressure.h"
 #include "scene/scene_json.h"
 #include "util/input_error.h"
 
@@ -311,7 +312,7 @@ std::vector<PinGroup> read_pins(const JsonNode& node, const Positions& initial, 
   return groups;
 }
 
-Pressure read_pressure(const JsonNode& node, const TriMesh& rest) {
+Pressure read_pressure(const JsonNode& node, const TriMesh& rest, const Positions& initial) {
   node.expect_keys({"model", "pressure"});
   Pressure p;
   std::string model = node.required("model").choice({"constant", "ideal_gas"}, "pressure model");
@@ -323,6 +324,15 @@ Pressure read_pressure(const JsonNode& node, const TriMesh& rest) {
     for (int count : topo.edge_face_count) boundary += (count == 1);
     node.fail("needs a closed mesh, but the object's mesh has " + std::to_string(boundary) +
               " boundary edges (use a closed mesh: icosphere, box, capped cylinder, or a closed OBJ)");
+  }
+  // The pressure potential needs outward normals (positive enclosed volume); an inward-oriented
+  // OBJ would otherwise suck the shell in.
+  for (const auto* shape : {&rest.V, &initial}) {
+    const double volume = enclosed_volume(rest.F, stacked(*shape));
+    if (!(volume > 0.0))
+      node.fail(std::string("needs outward-oriented faces, but the ") + (shape == &rest.V ? "rest" : "initial") +
+                " shape encloses a volume of " + format_number(volume) +
+                " m^3 (faces wound inward: reverse their vertex order)");
   }
   return p;
 }
@@ -360,7 +370,7 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
   if (auto v = node.optional("initial_velocity")) obj.initial_velocity = v->vec3();
   obj.material = read_material(node.required("material"));
   if (auto pins = node.optional("pins")) obj.pins = read_pins(*pins, obj.initial, node.path());
-  if (auto p = node.optional("pressure")) obj.pressure = read_pressure(*p, obj.rest);
+  if (auto p = node.optional("pressure")) obj.pressure = read_pressure(*p, obj.rest, obj.initial);
   if (auto w = node.optional("wind")) {
     obj.wind = w->boolean();
     if (obj.wind && !scene_has_wind) w->fail("is true but the scene has no top-level \"wind\" section");

@@ -505,6 +505,18 @@ TEST(SceneFileErrors, PressureOnAnOpenRectangleIsRejected) {
   expect_error(s, {"objects[0].pressure: needs a closed mesh", "16 boundary edges"});
 }
 
+TEST(SceneFileErrors, PressureOnAnInwardOrientedShellIsRejected) {
+  // An octahedron whose faces all wind inward: closed and manifold, but its volume is negative.
+  TempDir dir;
+  dir.write("inward.obj",
+            "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n"
+            "f 1 5 3\nf 3 5 2\nf 2 5 4\nf 4 5 1\nf 3 6 1\nf 2 6 3\nf 4 6 2\nf 1 6 4\n");
+  json s = valid_scene();
+  s["objects"][0]["mesh"] = {{"type", "obj"}, {"path", "inward.obj"}};
+  s["objects"][0]["pressure"] = {{"model", "ideal_gas"}, {"pressure", 100}};
+  expect_error(s, {"objects[0].pressure: needs outward-oriented faces", "-1.333333333 m^3"}, dir.path());
+}
+
 TEST(SceneFileErrors, EmptyPinRegionIsRejected) {
   json s = valid_scene();
   s["objects"][0]["pins"] = json::parse(R"([{"region": {"min": [2, 2, 2], "max": [3, 3, 3]}}])");
