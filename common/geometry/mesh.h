@@ -25,6 +25,15 @@ struct TriMesh {
   int num_faces() const { return static_cast<int>(F.rows()); }
 };
 
+// The cross-product matrix: cross_matrix(v) * u == v.cross(u).
+inline Mat3 cross_matrix(const Vec3& v) {
+  Mat3 m;
+  m << 0.0, -v.z(), v.y(),
+       v.z(), 0.0, -v.x(),
+       -v.y(), v.x(), 0.0;
+  return m;
+}
+
 // View of the stacked vector x (size 3n) as (n, 3) rows, and back, without copying.
 inline Eigen::Map<const Positions> as_rows(const Eigen::VectorXd& x) {
   return Eigen::Map<const Positions>(x.data(), x.size() / 3, 3);

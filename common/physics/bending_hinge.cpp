@@ -14,14 +14,6 @@ namespace {
 // Wings whose doubled area |n| is below this fraction of |e|^2 count as degenerate (see header).
 constexpr double kDegenerateRatio = 1e-12;
 
-Mat3 cross_matrix(const Vec3& v) {  // cross_matrix(v) * u == v.cross(u)
-  Mat3 m;
-  m << 0.0, -v.z(), v.y(),
-       v.z(), 0.0, -v.x(),
-       -v.y(), v.x(), 0.0;
-  return m;
-}
-
 // The hinge in relative coordinates: everything is measured from x0, so that
 //   e = x1 - x0 (edge), a = x2 - x0 (wing 1), b = x3 - x0 (wing 2),
 //   n1 = e x a, n2 = b x e (face normals, length = twice the triangle area).

@@ -30,12 +30,6 @@
 namespace pd {
 namespace {
 
-Mat3 cross_matrix(const Vec3& w) {
-  Mat3 m;
-  m << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
-  return m;
-}
-
 // Selector from K vertex positions (3K entries) to R relative vectors (3R entries): relative vector
 // i is vertex plus[i] minus vertex minus[i].
 template <int R, int K>

@@ -14,12 +14,6 @@
 namespace pd {
 namespace {
 
-Mat3 cross_matrix(const Vec3& w) {
-  Mat3 m;
-  m << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
-  return m;
-}
-
 Vec3 u_of(const Vec<12>& x) { return x.segment<3>(3) - x.segment<3>(0); }
 Vec3 v_of(const Vec<12>& x) { return x.segment<3>(9) - x.segment<3>(6); }
 
