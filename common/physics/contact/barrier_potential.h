@@ -1,0 +1,70 @@
+#pragma once
+// The IPC contact potential as one term of the incremental potential (C-IPC):
+//   E_c(x) = kappa * ( sum_{(v,f) point-triangle} b(d^2_vf(x))
+//                    + sum_{(a,b) edge-edge} m_ab(x) b(d^2_ab(x)) )
+// over the broad phase's candidate pairs, with b the offset log barrier of barrier.h (active when
+// the gap d - offset is below dhat), d^2 the squared distances of distance.h (closest-point type
+// chosen per pair and evaluation) and m_ab the edge-edge mollifier that smooths the barrier of
+// nearly parallel edges. max_step() is the CCD filter: no line-search step may bring any pair to
+// the offset distance, so every iterate, and so every stored frame, stays intersection-free.
+//
+// Variables: the stacked positions x of the whole scene (global vertex indices), metres.
+// Duplicated point-point / point-edge contacts (a vertex near a shared edge counts once per face)
+// are kept, as in IPC: they only scale the barrier locally.
+#include <vector>
+
+#include "physics/contact/broad_phase.h"
+#include "physics/energy_term.h"
+
+namespace pd {
+
+struct ContactSettings {
+  double dhat = 1e-3;      // activation gap, m: the barrier acts while d - offset < dhat
+  double offset = 0.0;     // xi, m: mid-surface distance at which contact happens (shell thickness)
+  double kappa = 0.0;      // barrier stiffness, J/m^4 (barrier.h: barrier_stiffness_bounds)
+  double ccd_ratio = 0.9;  // fraction of each certified-safe ACCD advance that is taken
+};
+
+// What the last evaluation saw (for frame statistics).
+struct ContactStats {
+  int active_point_triangle = 0;  // pairs with gap < dhat
+  int active_edge_edge = 0;
+  double min_gap = 0.0;           // min over candidate pairs of d - offset, m (+inf if none)
+};
+
+class BarrierPotential : public EnergyTerm {
+ public:
+  // rest: rest positions (rows = global vertices), for the mollifier thresholds.
+  BarrierPotential(ContactPrimitives primitives, const Positions& rest, const ContactSettings& settings);
+
+  std::string name() const override { return "contact"; }
+  double value(const Eigen::VectorXd& x) const override;
+  void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const override;
+  void add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
+                   HessianAssembly& hessian) const override;
+  // Largest alpha in [0, 1] such that no candidate pair reaches the offset distance on x -> x + alpha dx.
+  double max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const override;
+
+  // Statistics of the pairs at x (candidates, gaps, active counts).
+  ContactStats stats(const Eigen::VectorXd& x) const;
+
+  // The barrier's gradient without kappa (for initial_barrier_stiffness).
+  Eigen::VectorXd unit_stiffness_gradient(const Eigen::VectorXd& x) const;
+
+  const ContactSettings& settings() const { return settings_; }
+  void set_kappa(double kappa) { settings_.kappa = kappa; }
+  const ContactPrimitives& primitives() const { return primitives_; }
+
+ private:
+  // Calls f(kind, stencil, x12, d2, eps_x) for every candidate pair within the activation distance
+  // at x: kind 0 = point-triangle, 1 = edge-edge; stencil = the 4 global vertices in variable order;
+  // x12 their positions; d2 the squared distance (m^2); eps_x the mollifier threshold (edge-edge).
+  template <class F>
+  void for_each_active_pair(const Eigen::VectorXd& x, F&& f) const;
+
+  ContactPrimitives primitives_;
+  std::vector<double> edge_rest_length2_;  // |e_rest|^2 per edge, for the mollifier threshold
+  ContactSettings settings_;
+};
+
+}  // namespace pd

@@ -1,0 +1,167 @@
+// The IPC contact term: derivatives, the CCD cap on line-search steps, and a drape whose every frame
+// the independent CGAL checker certifies intersection-free.
+#include "physics/contact/barrier_potential.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "geometry/shapes.h"
+#include "geometry/topology.h"
+#include "physics/contact/barrier.h"
+#include "progressive/level_stepper.h"
+#include "support/intersection_checker.h"
+#include "support/term_eval.h"
+
+namespace pd {
+namespace {
+
+// Contact primitives of a scene system: every face and edge, objects as in the system, self-contact
+// as `self_contact` says per object.
+ContactPrimitives primitives_of(const SceneSystem& sys, std::vector<char> self_contact) {
+  ContactPrimitives p;
+  p.faces = sys.rest.F;
+  p.edges = build_topology(sys.rest).edges;
+  const int objects = static_cast<int>(sys.object_names.size());
+  p.vertex_object.resize(sys.rest.num_vertices());
+  for (int o = 0; o < objects; ++o)
+    for (int v = sys.object_offsets[o]; v < sys.object_offsets[o + 1]; ++v) p.vertex_object[v] = o;
+  p.object_self_contact = std::move(self_contact);
+  return p;
+}
+
+// Two squares, the second 0.12 m above the first, tilted and shifted so that point-triangle and
+// edge-edge pairs of several types are active at dhat = 0.1.
+struct TwoSquares {
+  ContactPrimitives prims;
+  Positions rest;
+  Eigen::VectorXd x;
+  TwoSquares() {
+    const TriMesh a = make_rectangle(1.0, 1.0, 2, 2);
+    TriMesh b = make_rectangle(0.6, 0.6, 2, 2);
+    const Mat3 R = Eigen::AngleAxisd(0.15, Vec3(1, 2, 0.5).normalized()).toRotationMatrix();
+    for (int i = 0; i < b.num_vertices(); ++i) b.V.row(i) = (R * b.V.row(i).transpose() + Vec3(0.07, -0.05, 0.12)).transpose();
+    rest.resize(a.num_vertices() + b.num_vertices(), 3);
+    rest << a.V, b.V;
+    prims.faces.resize(a.num_faces() + b.num_faces(), 3);
+    prims.faces << a.F, (b.F.array() + a.num_vertices()).matrix();
+    for (auto e : build_topology(a).edges) prims.edges.push_back(e);
+    for (auto e : build_topology(b).edges) prims.edges.push_back({e[0] + a.num_vertices(), e[1] + a.num_vertices()});
+    prims.vertex_object.assign(rest.rows(), 0);
+    for (int v = a.num_vertices(); v < rest.rows(); ++v) prims.vertex_object[v] = 1;
+    prims.object_self_contact = {0, 0};
+    x = stacked(rest);
+  }
+};
+
+TEST(BarrierPotential, GradientAndHessianMatchFiniteDifferencesWithActivePairs) {
+  TwoSquares s;
+  ContactSettings cs;
+  cs.dhat = 0.2;
+  cs.offset = 0.01;
+  cs.kappa = 10.0;
+  const BarrierPotential term(s.prims, s.rest, cs);
+  const ContactStats st = term.stats(s.x);
+  ASSERT_GT(st.active_point_triangle, 0);
+  ASSERT_GT(st.active_edge_edge, 0);
+  ASSERT_GT(st.min_gap, 0.0);
+  EXPECT_GT(term.value(s.x), 0.0);
+  // FD steps (1e-4 .. 1e-7 m) stay far below the smallest gap, so no pair changes activity.
+  test::expect_derivatives_match(test::check_term_derivatives(term, s.x), 1e-6, 1e-5);
+}
+
+TEST(BarrierPotential, ValueIsZeroWhenNoPairIsWithinTheActivationGap) {
+  TwoSquares s;
+  ContactSettings cs;
+  cs.dhat = 1e-3;
+  cs.kappa = 10.0;
+  const BarrierPotential term(s.prims, s.rest, cs);
+  EXPECT_EQ(term.value(s.x), 0.0);
+  EXPECT_EQ(test::term_gradient(term, s.x).norm(), 0.0);
+}
+
+TEST(BarrierPotential, MaxStepStopsATriangleBeforeItPassesThroughAnother) {
+  // The small square moves 0.5 m straight down through the big one: the step must be cut before
+  // contact, and the state at the cut must be intersection-free and at least the offset apart.
+  TwoSquares s;
+  ContactSettings cs;
+  cs.dhat = 1e-3;
+  cs.offset = 2e-3;
+  const BarrierPotential term(s.prims, s.rest, cs);
+  Eigen::VectorXd dx = Eigen::VectorXd::Zero(s.x.size());
+  for (int v = 9; v < 18; ++v) dx[3 * v + 2] = -0.13;
+  ASSERT_FALSE(test::intersection_free(as_rows(Eigen::VectorXd(s.x + dx)), s.prims.faces));
+  const double alpha = term.max_step(s.x, dx);
+  EXPECT_GT(alpha, 0.0);
+  EXPECT_LT(alpha, 1.0);
+  const Eigen::VectorXd x1 = s.x + alpha * dx;
+  EXPECT_TRUE(test::intersection_free(as_rows(x1), s.prims.faces));
+  EXPECT_GT(term.stats(x1).min_gap, 0.0);
+}
+
+TEST(BarrierPotential, SheetDroppedOnASphereNeverIntersectsAndStaysOnTop) {
+  // A 0.6 m cotton sheet dropped from 5 cm above a pinned sphere of radius 0.15 m.
+  Scene scene;
+  scene.name = "drape";
+  scene.time_step = 0.01;
+  scene.frames = 40;
+  scene.gravity = Vec3(0, -9.81, 0);
+  SceneObject sphere;
+  sphere.name = "sphere";
+  sphere.rest = make_icosphere(0.15, 2);
+  sphere.initial = sphere.rest.V;
+  sphere.material = {472.6, 0.8e6, 0.3, 3.2e-4, std::nullopt};
+  PinGroup all;
+  for (int v = 0; v < sphere.rest.num_vertices(); ++v) all.vertices.push_back(v);
+  sphere.pins.push_back(all);
+  SceneObject sheet;
+  sheet.name = "sheet";
+  sheet.rest = make_rectangle(0.6, 0.6, 12, 12);
+  for (int i = 0; i < sheet.rest.num_vertices(); ++i)  // lay it flat (x-z plane) at y = 0.2
+    sheet.rest.V.row(i) = Eigen::RowVector3d(sheet.rest.V(i, 0), 0.2, -sheet.rest.V(i, 1));
+  sheet.initial = sheet.rest.V;
+  sheet.material = sphere.material;
+  scene.objects = {sphere, sheet};
+
+  SceneSystem sys = build_scene_system(scene);
+  ContactSettings cs;
+  cs.dhat = 1e-3;
+  cs.offset = 0.0;
+  const double avg_mass = sys.masses.sum() / sys.masses.size();
+  cs.kappa = barrier_stiffness_bounds(cs.dhat, cs.offset, sys.bbox_diagonal, avg_mass, scene.time_step).kappa_min;
+  // The pinned sphere cannot touch itself; the sheet folds over the sphere and must not pass
+  // through itself (with self-contact off it did, at frame 23).
+  auto contact = std::make_unique<BarrierPotential>(primitives_of(sys, {0, 1}), sys.rest.V, cs);
+  const BarrierPotential* term = contact.get();
+  sys.ip.add_term(std::move(contact));
+
+  LevelStepper stepper(sys, scene.solver, scene.time_step);
+  Eigen::VectorXd x = sys.x0, v = sys.v0;
+  int checked = 0;
+  double min_gap = INFINITY;
+  for (int n = 0; n < scene.frames; ++n) {
+    const FrameRecord r = stepper.step(n, x, v);
+    EXPECT_TRUE(r.newton.converged) << "frame " << n + 1 << ": " << r.newton.stop_reason;
+    const test::IntersectionReport rep = test::find_intersections(as_rows(x), sys.rest.F);
+    ASSERT_EQ(rep.intersecting_pairs, 0) << "frame " << n + 1 << ": faces " << rep.face_pairs[0].first << ", "
+                                         << rep.face_pairs[0].second << " (sphere has " << scene.objects[0].rest.num_faces()
+                                         << " faces); min gap " << term->stats(x).min_gap;
+    ++checked;
+    min_gap = std::min(min_gap, term->stats(x).min_gap);
+  }
+  EXPECT_EQ(checked, scene.frames);
+  EXPECT_GT(min_gap, 0.0);
+  // The sheet's centre vertex (index 84 of the sheet) rests on the sphere's top (y = 0.15).
+  const int centre = sys.object_offsets[1] + 6 * 13 + 6;
+  const double sphere_top = scene.objects[0].rest.V.col(1).maxCoeff();
+  std::printf("drape: min gap %.3g m, centre height %.5f m (sphere top %.5f), speed %.3g m/s, "
+              "contact pairs at end %d PT / %d EE\n", min_gap, x[3 * centre + 1], sphere_top,
+              v.segment<3>(3 * centre).norm(), term->stats(x).active_point_triangle, term->stats(x).active_edge_edge);
+  EXPECT_GT(x[3 * centre + 1], sphere_top);
+  EXPECT_LT(x[3 * centre + 1], sphere_top + 5e-3);
+}
+
+}  // namespace
+}  // namespace pd
