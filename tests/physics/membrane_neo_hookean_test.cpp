@@ -3,13 +3,6 @@
 // Finite-difference checks use unit-scale geometry (edges ~1 m) so that the default step sizes
 // (1e-4 .. 1e-7 m) are small relative to the triangle; one test uses centimetre triangles with steps
 // scaled to the edge length. The tolerances are scale-free (relative errors).
-// The pragma silences a known GCC 12 / Eigen 3.4.0 false positive (-Wmaybe-uninitialized inside
-// SelfAdjointEigenSolver) when Eigen is included with -I rather than as a system header; it covers
-// only the included headers' lines.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -21,9 +14,6 @@
 
 #include "physics/membrane_neo_hookean.h"
 #include "support/finite_difference.h"
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic pop
-#endif
 
 namespace pd {
 namespace {

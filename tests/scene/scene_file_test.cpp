@@ -27,11 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-#ifdef PD_SOURCE_DIR
-const std::string kScenesDir = std::string(PD_SOURCE_DIR) + "/scenes";
-#else
-const std::string kScenesDir = "../scenes";
-#endif
+const std::string kScenesDir = std::string(PD_SOURCE_DIR) + "/scenes";  // set by tests/CMakeLists.txt
 
 const std::string kFile = "shots/test-scene.json";  // the name messages must carry
 
