@@ -21,8 +21,6 @@ FrameStats to_stats(const FrameRecord& r) {
   return s;
 }
 
-Positions rows_of(const Eigen::VectorXd& x) { return as_rows(x); }
-
 }  // namespace
 
 int run_direct(const Scene& scene, const DirectRunOptions& options) {
@@ -33,7 +31,7 @@ int run_direct(const Scene& scene, const DirectRunOptions& options) {
 
   LevelStepper stepper(sys, scene.solver, scene.time_step);
   FrameRecord r = stepper.initial_frame();
-  writer.write_frame(0, 0, rows_of(r.x), to_stats(r));
+  writer.write_frame(0, 0, as_rows(r.x), to_stats(r));
   if (options.on_frame) options.on_frame(r);
 
   Eigen::VectorXd x = sys.x0, v = sys.v0;
@@ -41,7 +39,7 @@ int run_direct(const Scene& scene, const DirectRunOptions& options) {
   for (int t = 0; t < frames; ++t) {
     r = stepper.step(t, x, v);
     not_converged += !r.newton.converged;
-    writer.write_frame(0, t + 1, rows_of(r.x), to_stats(r));
+    writer.write_frame(0, t + 1, as_rows(r.x), to_stats(r));
     if (options.on_frame) options.on_frame(r);
   }
   return not_converged;

@@ -16,6 +16,7 @@ namespace {
 
 using test::make_object;
 using test::make_scene;
+using test::run_scene;
 
 double enclosed_volume(const Faces& F, const Eigen::VectorXd& x) {
   double v = 0;
@@ -34,12 +35,8 @@ TEST(LevelStepper, FreeFallMatchesClosedFormImplicitEuler) {
   scene.objects[0].initial_velocity = v0;
   scene.solver.tolerance = 1e-9;
   SceneSystem sys = build_scene_system(scene);
-  LevelStepper stepper(sys, scene.solver, h);
-  Eigen::VectorXd x = sys.x0, v = sys.v0;
-  for (int n = 0; n < scene.frames; ++n) {
-    const FrameRecord r = stepper.step(n, x, v);
-    ASSERT_TRUE(r.newton.converged) << "frame " << n + 1;
-  }
+  Eigen::VectorXd v;
+  const Eigen::VectorXd x = run_scene(scene, sys, &v);
   const int N = scene.frames;
   const Vec3 expected_shift = N * h * v0 + h * h * g * (N * (N + 1) / 2.0);
   for (int i = 0; i < sys.rest.num_vertices(); ++i) {
@@ -47,17 +44,6 @@ TEST(LevelStepper, FreeFallMatchesClosedFormImplicitEuler) {
     EXPECT_LT((shift - expected_shift).norm(), 1e-9 * expected_shift.norm()) << "vertex " << i;
     EXPECT_LT((v.segment<3>(3 * i) - (v0 + N * h * g)).norm(), 1e-8) << "vertex " << i;
   }
-}
-
-// Runs a scene file's frames and returns the final positions.
-Eigen::VectorXd run_scene(const Scene& scene, SceneSystem& sys) {
-  LevelStepper stepper(sys, scene.solver, scene.time_step);
-  Eigen::VectorXd x = sys.x0, v = sys.v0;
-  for (int n = 0; n < scene.frames; ++n) {
-    const FrameRecord r = stepper.step(n, x, v);
-    EXPECT_TRUE(r.newton.converged) << "frame " << n + 1 << ": " << r.newton.stop_reason;
-  }
-  return x;
 }
 
 TEST(LevelStepper, ClampedStripSettlesToPlateTheoryDeflection) {
@@ -118,13 +104,8 @@ TEST(LevelStepper, PressurisedSphereGrowsToTheStableVolumeOfTheNeoHookeanBalance
   for (int i = 0; i < 200; ++i) (balance(0.5 * (lo + hi)) > 0 ? hi : lo) = 0.5 * (lo + hi);
   const double s_theory = 0.5 * (lo + hi);
 
-  LevelStepper stepper(sys, scene.solver, scene.time_step);
-  Eigen::VectorXd x = sys.x0, v = sys.v0;
   std::vector<double> volumes;
-  for (int n = 0; n < scene.frames; ++n) {
-    stepper.step(n, x, v);
-    volumes.push_back(enclosed_volume(F, x));
-  }
+  run_scene(scene, sys, nullptr, [&](const FrameRecord& r) { volumes.push_back(enclosed_volume(F, r.x)); });
   const double s_sim = std::cbrt(volumes.back() / V0);
   std::printf("balloon stretch: simulated %.6f, theory %.6f\n", s_sim, s_theory);
   EXPECT_GT(s_theory, 1.05) << "the scene must inflate noticeably for this test to mean anything";
@@ -148,9 +129,8 @@ TEST(LevelStepper, NewtonConvergesQuadraticallyOnAHangingSheetStep) {
   for (int i = 110; i <= 120; ++i) pins.vertices.push_back(i);  // the top row
   scene.objects[0].pins.push_back(pins);
   SceneSystem sys = build_scene_system(scene);
-  LevelStepper stepper(sys, scene.solver, scene.time_step);
-  Eigen::VectorXd x = sys.x0, v = sys.v0;
-  for (int n = 0; n < scene.frames; ++n) stepper.step(n, x, v);
+  Eigen::VectorXd v;
+  Eigen::VectorXd x = run_scene(scene, sys, &v);
 
   SolverSettings exact = scene.solver;
   exact.projection = HessianProjection::None;
@@ -179,9 +159,8 @@ TEST(LevelStepper, CurvedRestShapeStaysAtRestWithoutGravity) {
   Scene scene = make_scene(0.01, 10, Vec3::Zero());
   scene.objects.push_back(make_object("sphere", make_icosphere(0.1, 2), test::cotton()));
   SceneSystem sys = build_scene_system(scene);
-  LevelStepper stepper(sys, scene.solver, scene.time_step);
-  Eigen::VectorXd x = sys.x0, v = sys.v0;
-  for (int n = 0; n < scene.frames; ++n) stepper.step(n, x, v);
+  Eigen::VectorXd v;
+  const Eigen::VectorXd x = run_scene(scene, sys, &v);
   EXPECT_LT((x - sys.x0).lpNorm<Eigen::Infinity>(), 1e-12);
   EXPECT_LT(v.lpNorm<Eigen::Infinity>(), 1e-10);
 }
@@ -198,9 +177,7 @@ TEST(LevelStepper, ScriptedPinsFollowTheirScriptExactly) {
   pins.script = script;
   scene.objects[0].pins.push_back(pins);
   SceneSystem sys = build_scene_system(scene);
-  LevelStepper stepper(sys, scene.solver, scene.time_step);
-  Eigen::VectorXd x = sys.x0, v = sys.v0;
-  for (int n = 0; n < scene.frames; ++n) stepper.step(n, x, v);
+  const Eigen::VectorXd x = run_scene(scene, sys);
   // After the script ends (t = 0.1 s) the pins stay where it left them: rotated by 0.15 rad about
   // the origin and moved 0.02 m along x.
   const Mat3 R = Eigen::AngleAxisd(0.15, Vec3::UnitZ()).toRotationMatrix();
@@ -223,10 +200,7 @@ TEST(LevelStepper, SameInputsGiveBitIdenticalFrames) {
     wind.gust_frequency = 2;
     scene.wind = wind;
     SceneSystem sys = build_scene_system(scene);
-    LevelStepper stepper(sys, scene.solver, scene.time_step);
-    Eigen::VectorXd x = sys.x0, v = sys.v0;
-    for (int n = 0; n < scene.frames; ++n) stepper.step(n, x, v);
-    return x;
+    return run_scene(scene, sys);
   };
   const Eigen::VectorXd a = run(), b = run();
   ASSERT_EQ(a.size(), b.size());
@@ -246,10 +220,7 @@ TEST(LevelStepper, WindPushesAHangingSheetDownwind) {
       scene.wind = wind;
     }
     SceneSystem sys = build_scene_system(scene);
-    LevelStepper stepper(sys, scene.solver, scene.time_step);
-    Eigen::VectorXd x = sys.x0, v = sys.v0;
-    for (int n = 0; n < scene.frames; ++n) stepper.step(n, x, v);
-    return centers_of_mass(sys, x)(0, 2);
+    return centers_of_mass(sys, run_scene(scene, sys))(0, 2);
   };
   EXPECT_NEAR(final_com_z(false), 0.0, 1e-9);  // symmetric: no out-of-plane motion without wind
   EXPECT_GT(final_com_z(true), 0.05);           // wind blows along +z

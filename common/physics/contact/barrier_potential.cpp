@@ -45,9 +45,17 @@ BarrierPotential::BarrierPotential(ContactPrimitives primitives, const Positions
     edge_rest_length2_.push_back((rest.row(e[1]) - rest.row(e[0])).squaredNorm());
 }
 
+const CandidatePairs& BarrierPotential::candidates(const Eigen::VectorXd& x) const {
+  if (cached_x_.size() != x.size() || cached_x_ != x) {
+    cached_pairs_ = find_candidates(primitives_, as_rows(x), settings_.dhat + settings_.offset);
+    cached_x_ = x;
+  }
+  return cached_pairs_;
+}
+
 template <class F>
 void BarrierPotential::for_each_active_pair(const Eigen::VectorXd& x, F&& f) const {
-  const CandidatePairs pairs = find_candidates(primitives_, as_rows(x), settings_.dhat + settings_.offset);
+  const CandidatePairs& pairs = candidates(x);
   const double active_d2 = barrier_active_squared_distance(settings_.dhat, settings_.offset);
   for (const auto& pair : pairs.point_triangle) {
     const auto stencil = point_triangle_stencil(primitives_, pair);

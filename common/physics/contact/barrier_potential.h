@@ -62,7 +62,13 @@ class BarrierPotential : public EnergyTerm {
   template <class F>
   void for_each_active_pair(const Eigen::VectorXd& x, F&& f) const;
 
+  // The broad phase's pairs at x, reused while x is bit-for-bit unchanged: a Newton iteration asks
+  // for the gradient and the Hessian at the positions the line search just evaluated.
+  const CandidatePairs& candidates(const Eigen::VectorXd& x) const;
+
   ContactPrimitives primitives_;
+  mutable Eigen::VectorXd cached_x_;
+  mutable CandidatePairs cached_pairs_;
   std::vector<double> edge_rest_length2_;  // |e_rest|^2 per edge, for the mollifier threshold
   ContactSettings settings_;
 };
