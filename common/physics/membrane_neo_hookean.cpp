@@ -7,6 +7,8 @@
 
 #include <Eigen/Geometry>
 
+#include "physics/triangle_rest.h"
+
 // Derivation (notation of the header; B = abar^{-1}, A = a^{-1}, L = ln det M, all 2x2 symmetric).
 //   tr M = tr(B e^T e)             => d(tr M)/de = 2 e B
 //   L = ln det a - ln det abar     => dL/de = 2 e A          (d ln det a = tr(A da), da = de^T e + e^T de)
@@ -186,28 +188,7 @@ Mat<9> neo_hookean_membrane_hessian(const Vec<9>& x, const MembraneRest& rest,
 NeoHookeanMembrane::NeoHookeanMembrane(const Faces& faces, const Positions& rest,
                                        const MembraneMaterialParams& params)
     : params_(params) {
-  const int n = static_cast<int>(faces.rows());
-  faces_.reserve(n);
-  rest_.reserve(n);
-  int max_vertex = -1;
-  for (int f = 0; f < n; ++f) {
-    std::array<int, 3> v{faces(f, 0), faces(f, 1), faces(f, 2)};
-    for (int k = 0; k < 3; ++k) {
-      if (v[k] < 0 || v[k] >= rest.rows())
-        throw std::invalid_argument("NeoHookeanMembrane: face " + std::to_string(f) +
-                                    " has a vertex index outside the rest positions");
-      max_vertex = std::max(max_vertex, v[k]);
-    }
-    try {
-      rest_.push_back(membrane_rest(rest.row(v[0]).transpose(), rest.row(v[1]).transpose(),
-                                    rest.row(v[2]).transpose()));
-    } catch (const std::invalid_argument&) {
-      throw std::invalid_argument("NeoHookeanMembrane: rest triangle of face " + std::to_string(f) +
-                                  " has zero area");
-    }
-    faces_.push_back(v);
-  }
-  min_dofs_ = 3 * (max_vertex + 1);
+  min_dofs_ = build_triangle_rest("NeoHookeanMembrane", faces, rest, membrane_rest, faces_, rest_);
 }
 
 void NeoHookeanMembrane::check_size(const Eigen::VectorXd& x) const {

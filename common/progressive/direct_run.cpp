@@ -17,6 +17,8 @@ FrameStats to_stats(const FrameRecord& r) {
                {"factorize_seconds", n.analyse_seconds + n.factorize_seconds},
                {"kinetic_energy", r.kinetic_energy}};
   for (const auto& [name, value] : r.energies) s.scalars.emplace_back("energy_" + name, value);
+  for (const auto& stat : r.contact) s.scalars.push_back(stat);
+  s.scalars.emplace_back("pin_rounds", r.pin_rounds);
   s.center_of_mass = r.center_of_mass;
   return s;
 }
@@ -26,6 +28,7 @@ FrameStats to_stats(const FrameRecord& r) {
 int run_direct(const Scene& scene, const DirectRunOptions& options) {
   const int frames = options.frames >= 1 ? options.frames : scene.frames;
   SceneSystem sys = build_scene_system(scene);
+  check_start_state(scene, sys);
   FrameWriter writer = FrameWriter::create(options.out_path, scene.json_text, frames);
   writer.add_level(0, sys.rest.V, sys.rest.F, sys.object_offsets, sys.object_names);
 

@@ -3,8 +3,28 @@
 #include <chrono>
 
 #include "physics/inertia.h"
+#include "physics/pin_target.h"
 
 namespace pd {
+
+namespace {
+
+// Augmented-Lagrangian rounds a step may spend moving blocked pins before it gives up.
+constexpr int kMaxPinRounds = 32;
+// Initial pull stiffness in units of a free vertex's inertia stiffness (mass / h^2).
+constexpr double kPinPullScale = 1e4;
+
+void accumulate(NewtonReport& total, const NewtonReport& part) {
+  total.iterations += part.iterations;
+  total.line_search_cuts += part.line_search_cuts;
+  total.assemble_seconds += part.assemble_seconds;
+  total.analyse_seconds += part.analyse_seconds;
+  total.factorize_seconds += part.factorize_seconds;
+  total.solve_seconds += part.solve_seconds;
+  total.line_search_seconds += part.line_search_seconds;
+}
+
+}  // namespace
 
 LevelStepper::LevelStepper(SceneSystem& system, const SolverSettings& settings, double h)
     : sys_(system), settings_(settings), h_(h) {}
@@ -16,19 +36,65 @@ FrameRecord LevelStepper::record(int frame, const Eigen::VectorXd& x, const Eige
   r.x = x;
   r.kinetic_energy = kinetic_energy(sys_.masses, v);
   r.energies = sys_.ip.term_values(x, "inertia");
+  r.contact = sys_.contact.stats(x);
   r.center_of_mass = centers_of_mass(sys_, x);
   return r;
 }
 
 FrameRecord LevelStepper::initial_frame() const { return record(0, sys_.x0, sys_.v0); }
 
+// Scripted pins (and moving obstacles) must not jump through free vertices. When the straight move
+// to their targets would cross contact (the potential's CCD caps it), the pins become unknowns
+// pulled toward their targets by an augmented-Lagrangian term (physics/pin_target.h, IPC's kinematic
+// targets), so the solve moves pins and cloth together and every iterate stays intersection-free.
+// Once the rest of the way is collision-free, the pins are placed exactly and fixed again.
+int LevelStepper::move_pins(double t_end, Eigen::VectorXd& x, const NewtonSettings& ns, NewtonReport& report) {
+  if (sys_.scripts.empty()) return 0;
+  Eigen::VectorXd target = x;
+  for (const auto& pin : sys_.pins) target.segment<3>(3 * pin.vertex) = pin_position(sys_, pin, t_end);
+  const Eigen::VectorXd d = target - x;
+  if (d.isZero(0.0)) return 0;
+  if (sys_.ip.max_step(x, d) >= 1.0) {
+    x = target;
+    return 0;
+  }
+  PinTargetTerm& pull = *sys_.pin_target;
+  const std::vector<char> fixed = sys_.ip.fixed_dofs();
+  std::vector<char> free_scripted = fixed;
+  for (const auto& pin : sys_.pins)
+    if (pin.script >= 0) free_scripted[3 * pin.vertex] = free_scripted[3 * pin.vertex + 1] = free_scripted[3 * pin.vertex + 2] = 0;
+  sys_.ip.set_fixed_dofs(free_scripted);
+  // Stiff against the inertia of a free vertex (mass / h^2), so the pins lead and the cloth follows.
+  pull.activate(target, kPinPullScale * sys_.average_free_mass / (h_ * h_));
+  int rounds = -1;
+  double previous = pull.max_distance(x);
+  for (int round = 1; round <= kMaxPinRounds; ++round) {
+    accumulate(report, newton_minimize(sys_.ip, x, ns, hessian_, solver_));
+    Eigen::VectorXd rest = Eigen::VectorXd::Zero(x.size());
+    for (int v : pull.vertices()) rest.segment<3>(3 * v) = target.segment<3>(3 * v) - x.segment<3>(3 * v);
+    if (sys_.ip.max_step(x, rest) >= 1.0) {
+      x += rest;
+      rounds = round;
+      break;
+    }
+    // IPC's rule: update the multipliers while the pins close in, stiffen the pull when they stall.
+    const double distance = pull.max_distance(x);
+    if (distance < 0.5 * previous) {
+      pull.update_multipliers(x);
+    } else {
+      pull.set_stiffness(2.0 * pull.stiffness());
+    }
+    previous = distance;
+  }
+  pull.deactivate();
+  sys_.ip.set_fixed_dofs(fixed);
+  return rounds;
+}
+
 FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v) {
   const auto t0 = std::chrono::steady_clock::now();
   const double t_end = (frame + 1) * h_;
   const Eigen::VectorXd x_start = x, v_start = v;
-  // Pinned vertices jump to where their script puts them at the end of the step; Newton keeps them
-  // there (fixed dofs) and solves for the rest.
-  for (const auto& pin : sys_.pins) x.segment<3>(3 * pin.vertex) = pin_position(sys_, pin, t_end);
 
   StepStart start;
   start.time_end = t_end;
@@ -36,17 +102,31 @@ FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v
   start.x = &x_start;
   start.v = &v_start;
   sys_.ip.begin_step(start);
+  sys_.contact.begin_step(sys_.ip, start);
 
   NewtonSettings ns;
   ns.h = h_;
   ns.step_tolerance = settings_.tolerance * sys_.bbox_diagonal;
   ns.max_iterations = settings_.max_newton_iterations;
   ns.projection = settings_.projection;
-  NewtonReport report = newton_minimize(sys_.ip, x, ns, hessian_, solver_);
+  if (sys_.contact.has_barrier()) ns.after_iteration = [this](const Eigen::VectorXd& xi) { sys_.contact.after_iteration(xi); };
+
+  // Pinned vertices go to where their scripts put them at the end of the step; Newton then keeps
+  // them there (fixed dofs) and solves for the rest.
+  NewtonReport pins_report;
+  const int pin_rounds = move_pins(t_end, x, ns, pins_report);
+  NewtonReport report;
+  if (pin_rounds >= 0) {
+    report = newton_minimize(sys_.ip, x, ns, hessian_, solver_);
+  } else {
+    report.stop_reason = "pins_blocked";
+  }
+  accumulate(report, pins_report);
   v = (x - x_start) / h_;
 
   FrameRecord r = record(frame + 1, x, v);
   r.newton = std::move(report);
+  r.pin_rounds = pin_rounds;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }

@@ -24,6 +24,8 @@ struct FrameRecord {
   double seconds = 0.0;                // wall time of the step
   double kinetic_energy = 0.0;         // J
   std::vector<std::pair<std::string, double>> energies;  // potential terms (not inertia), J
+  std::vector<std::pair<std::string, double>> contact;   // ContactControl::stats at x
+  int pin_rounds = 0;                  // solves that moved blocked pins (0 = none, -1 = blocked)
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> center_of_mass;
 };
 
@@ -38,6 +40,10 @@ class LevelStepper {
 
  private:
   FrameRecord record(int frame, const Eigen::VectorXd& x, const Eigen::VectorXd& v) const;
+  // Moves the pinned vertices to where their scripts put them at the end of the step without ever
+  // passing through contact; returns the number of augmented-Lagrangian solves it needed (0 when
+  // the straight move was collision-free), or -1 if the pins could not reach their targets.
+  int move_pins(double t_end, Eigen::VectorXd& x, const NewtonSettings& ns, NewtonReport& report);
 
   SceneSystem& sys_;
   SolverSettings settings_;

@@ -10,6 +10,7 @@
 #include "physics/gravity.h"
 #include "physics/inertia.h"
 #include "physics/membrane_neo_hookean.h"
+#include "physics/pin_target.h"
 #include "physics/pressure.h"
 #include "physics/wind.h"
 
@@ -24,16 +25,28 @@ Faces offset_faces(const Faces& F, int offset) {
   return out;
 }
 
+// Pins an object's group (object-local vertices, object's first global vertex `offset`).
+void add_pins(const PinGroup& group, int offset, SceneSystem& sys) {
+  int script = -1;
+  if (group.script) {
+    script = static_cast<int>(sys.scripts.size());
+    sys.scripts.push_back(*group.script);
+  }
+  for (int v : group.vertices) sys.pins.push_back({offset + v, sys.x0.segment<3>(3 * (offset + v)), script});
+}
+
 }  // namespace
 
 SceneSystem build_scene_system(const Scene& scene) {
   SceneSystem sys;
   int n = 0, m = 0;
   sys.object_offsets.push_back(0);
+  sys.object_face_offsets.push_back(0);
   for (const auto& obj : scene.objects) {
     n += obj.rest.num_vertices();
     m += obj.rest.num_faces();
     sys.object_offsets.push_back(n);
+    sys.object_face_offsets.push_back(m);
     sys.object_names.push_back(obj.name);
   }
   sys.rest.V.resize(n, 3);
@@ -57,6 +70,15 @@ SceneSystem build_scene_system(const Scene& scene) {
       sys.x0.segment<3>(3 * (off + i)) = obj.initial.row(i).transpose();
       sys.v0.segment<3>(3 * (off + i)) = obj.initial_velocity;
     }
+    if (obj.obstacle) {
+      // Every vertex follows the motion (or stays); nothing else about an obstacle is simulated.
+      PinGroup all;
+      all.vertices.resize(nv);
+      for (int i = 0; i < nv; ++i) all.vertices[i] = i;
+      all.script = obj.motion;
+      add_pins(all, off, sys);
+      continue;
+    }
     const Material& mat = obj.material;
     sys.masses.segment(3 * off, 3 * nv) = lumped_masses(obj.rest.F, obj.rest.V, mat.density * mat.thickness);
 
@@ -70,15 +92,7 @@ SceneSystem build_scene_system(const Scene& scene) {
     if (obj.pressure) terms.push_back(std::make_unique<PressureTerm>(F, sys.x0, *obj.pressure));
     if (scene.wind && obj.wind) terms.push_back(std::make_unique<WindTerm>(F, *scene.wind));
 
-    for (const auto& group : obj.pins) {
-      int script = -1;
-      if (group.script) {
-        script = static_cast<int>(sys.scripts.size());
-        sys.scripts.push_back(*group.script);
-      }
-      for (int v : group.vertices)
-        sys.pins.push_back({off + v, sys.x0.segment<3>(3 * (off + v)), script});
-    }
+    for (const auto& group : obj.pins) add_pins(group, off, sys);
   }
 
   // Inertia first, gravity (only when non-zero) next, then elasticity and the rest.
@@ -86,12 +100,27 @@ SceneSystem build_scene_system(const Scene& scene) {
   if (scene.gravity.squaredNorm() > 0) sys.ip.add_term(std::make_unique<GravityTerm>(sys.masses, scene.gravity));
   for (auto& t : terms) sys.ip.add_term(std::move(t));
 
+  std::vector<int> scripted;
+  for (const auto& pin : sys.pins)
+    if (pin.script >= 0) scripted.push_back(pin.vertex);
+  if (!scripted.empty()) {
+    auto pull = std::make_unique<PinTargetTerm>(std::move(scripted));
+    sys.pin_target = pull.get();
+    sys.ip.add_term(std::move(pull));
+  }
+  double mass_sum = 0;
+  int massive = 0;
+  for (int i = 0; i < n; ++i)
+    if (sys.masses[3 * i] > 0) mass_sum += sys.masses[3 * i], ++massive;
+  sys.average_free_mass = massive ? mass_sum / massive : 0.0;
+
   std::vector<char> fixed(3 * n, 0);
   for (const auto& pin : sys.pins) fixed[3 * pin.vertex] = fixed[3 * pin.vertex + 1] = fixed[3 * pin.vertex + 2] = 1;
   sys.ip.set_fixed_dofs(std::move(fixed));
 
   const auto X = as_rows(sys.x0);
   sys.bbox_diagonal = (X.colwise().maxCoeff() - X.colwise().minCoeff()).norm();
+  add_contact_terms(scene, sys);
   return sys;
 }
 
@@ -116,7 +145,12 @@ Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> centers_of_mass(const 
       sum += sys.masses[3 * v] * x.segment<3>(3 * v);
       mass += sys.masses[3 * v];
     }
-    com.row(o) = (sum / mass).transpose();
+    if (mass > 0) {
+      com.row(o) = (sum / mass).transpose();
+    } else {
+      const int first = sys.object_offsets[o], count = sys.object_offsets[o + 1] - first;
+      com.row(o) = as_rows(x).middleRows(first, count).colwise().mean();
+    }
   }
   return com;
 }

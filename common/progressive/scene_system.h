@@ -8,10 +8,13 @@
 #include <Eigen/Core>
 
 #include "geometry/mesh.h"
+#include "progressive/contact_control.h"
 #include "scene/scene.h"
 #include "solver/incremental_potential.h"
 
 namespace pd {
+
+class PinTargetTerm;
 
 struct PinnedVertex {
   int vertex = 0;        // global vertex index
@@ -22,6 +25,7 @@ struct PinnedVertex {
 struct SceneSystem {
   TriMesh rest;                          // all objects, global vertex indices, rest positions
   std::vector<int> object_offsets;       // object k owns vertices [off[k], off[k+1])
+  std::vector<int> object_face_offsets;  // object k owns faces [off[k], off[k+1]) of rest.F
   std::vector<std::string> object_names;
   Eigen::VectorXd masses;                // lumped, per dof (3 per vertex), kg
   Eigen::VectorXd x0, v0;                // initial stacked positions (m) and velocities (m/s)
@@ -29,14 +33,19 @@ struct SceneSystem {
   std::vector<PinScript> scripts;
   double bbox_diagonal = 0.0;            // of the initial positions, m (scales the Newton tolerance)
   IncrementalPotential ip;               // inertia first, then the scene's terms
+  ContactControl contact;                // the contact and strain-limit terms in ip, if any
+  PinTargetTerm* pin_target = nullptr;   // in ip when some pin has a script (see level_stepper.cpp)
+  double average_free_mass = 0.0;        // mean lumped mass of the vertices with mass, kg
 };
 
+// Builds the system of the scene's finest meshes. Obstacles get every vertex pinned to their
+// motion script, no mass and no elastic terms.
 SceneSystem build_scene_system(const Scene& scene);
 
 // Where a pinned vertex is at time t (s).
 Vec3 pin_position(const SceneSystem& sys, const PinnedVertex& pin, double t);
 
-// Centre of mass of each object (rows), m.
+// Centre of mass of each object (rows), m; the plain vertex average for massless obstacles.
 Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> centers_of_mass(const SceneSystem& sys,
                                                                           const Eigen::VectorXd& x);
 

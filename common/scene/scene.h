@@ -45,6 +45,36 @@ struct Pressure {
   double pressure = 0.0;  // Pa (gauge)
 };
 
+// C-IPC strain limiting: the largest singular value of each triangle's deformation gradient stays
+// below `limit` (1.1 = at most 10% stretch in any direction).
+struct StrainLimit {
+  double limit = 1.1;        // dimensionless stretch, > 1
+};
+
+// IPC contact between all objects (and each object with itself where self_contact is set).
+struct ContactConfig {
+  double dhat = 1e-3;        // activation gap, m: barriers act while the gap is below dhat
+  double offset = 0.0;       // m: contact happens at this distance between mid-surfaces (thickness)
+  double ccd_ratio = 0.9;    // fraction of each certified-safe CCD advance that a step may take
+  double friction = 0.0;     // Coulomb coefficient of every pair of objects without an override
+  double eps_v = 1e-3;       // m/s: tangential speed below which friction is smoothed (static)
+  // Coefficients for particular pairs of objects (indices into Scene::objects, a <= b; a == b is
+  // an object's self-friction).
+  struct PairFriction {
+    int a = 0, b = 0;
+    double mu = 0.0;
+  };
+  std::vector<PairFriction> pair_friction;
+  std::optional<double> stiffness;  // kappa, J/m^4; absent: adaptive (IPC)
+};
+
+// The analytic ground: the half-space n . p >= height is free space.
+struct Ground {
+  Vec3 normal = Vec3(0, 1, 0);  // unit
+  double height = 0.0;          // m
+  double friction = 0.0;        // Coulomb coefficient against every object
+};
+
 struct SceneObject {
   std::string name;
   TriMesh rest;                        // rest shape after the object's transform, m
@@ -54,6 +84,15 @@ struct SceneObject {
   std::vector<PinGroup> pins;
   std::optional<Pressure> pressure;    // closed shells only
   bool wind = true;                    // whether the scene's wind acts on this object
+  // Contact (only read when the scene has a "contact" section): whether the object's own surface
+  // may touch itself (folds, drapes); other objects and the ground always collide with it.
+  bool self_contact = false;
+  bool ground_contact = true;          // collides with the scene's ground half-space, if any
+  // An obstacle is a collider, not a simulated object: every vertex follows `motion` (or stays
+  // put), it has no elastic energy and no mass, and `material` is unused.
+  bool obstacle = false;
+  std::optional<PinScript> motion;     // obstacles only
+  std::optional<StrainLimit> strain_limit;
 };
 
 // Air moving at air_velocity * (1 + gust_amplitude * sin(2 pi gust_frequency t)), drag on each
@@ -81,6 +120,8 @@ struct Scene {
   int frames = 0;            // N: frames 0..N are stored
   Vec3 gravity = Vec3(0, -9.81, 0);  // m/s^2
   std::optional<Wind> wind;
+  std::optional<ContactConfig> contact;  // absent: objects pass through each other (no contact cost)
+  std::optional<Ground> ground;          // requires contact
   SolverSettings solver;
   std::vector<SceneObject> objects;
 };

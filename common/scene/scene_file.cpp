@@ -13,6 +13,7 @@
 #include "geometry/shapes.h"
 #include "geometry/topology.h"
 #include "physics/pressure.h"
+#include "scene/scene_contact.h"
 #include "scene/scene_json.h"
 #include "util/input_error.h"
 
@@ -341,7 +342,7 @@ bool valid_name_char(char c) { return static_cast<unsigned char>(c) >= 0x20 && c
 
 SceneObject read_object(const JsonNode& node, int index, const std::string& base_dir, bool scene_has_wind) {
   node.expect_keys({"name", "mesh", "transform", "initial_positions", "initial_velocity", "material", "pins",
-                    "pressure", "wind"});
+                    "pressure", "wind", "obstacle", "motion", "self_contact", "ground_contact", "strain_limit"});
   SceneObject obj;
   obj.name = "object_" + std::to_string(index);
   if (auto name = node.optional("name")) {
@@ -367,6 +368,22 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
     obj.initial = obj.rest.V;
   }
 
+  if (auto o = node.optional("obstacle")) obj.obstacle = o->boolean();
+  if (obj.obstacle) {
+    // A collider moves as its script says; keys that give it dynamics would be silently ignored.
+    for (const char* key : {"initial_velocity", "pins", "pressure", "wind", "self_contact", "ground_contact",
+                            "strain_limit"})
+      if (auto k = node.optional(key)) k->fail("does not apply to an obstacle (\"obstacle\": true)");
+    if (auto m = node.optional("material")) obj.material = read_material(*m);
+    if (auto m = node.optional("motion")) obj.motion = read_script(*m);
+    // Obstacles never touch the ground: both are fixed, so the barrier between them could only
+    // block the obstacle's motion.
+    obj.wind = false;
+    obj.ground_contact = false;
+    return obj;
+  }
+  if (auto m = node.optional("motion"))
+    m->fail("applies to obstacles only (to move part of a simulated object, use a pin with a \"script\")");
   if (auto v = node.optional("initial_velocity")) obj.initial_velocity = v->vec3();
   obj.material = read_material(node.required("material"));
   if (auto pins = node.optional("pins")) obj.pins = read_pins(*pins, obj.initial, node.path());
@@ -375,6 +392,9 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
     obj.wind = w->boolean();
     if (obj.wind && !scene_has_wind) w->fail("is true but the scene has no top-level \"wind\" section");
   }
+  if (auto c = node.optional("self_contact")) obj.self_contact = c->boolean();
+  if (auto g = node.optional("ground_contact")) obj.ground_contact = g->boolean();
+  if (auto l = node.optional("strain_limit")) obj.strain_limit = read_strain_limit(*l);
   return obj;
 }
 
@@ -400,6 +420,24 @@ SolverSettings read_solver(const JsonNode& node) {
   return s;
 }
 
+// The top-level "contact" and "ground" sections, and the object keys that only mean something
+// with them: without "contact", nothing collides, so asking for contact anywhere is an error rather
+// than a silent no-op.
+void read_contact_sections(const JsonNode& root, const std::vector<JsonNode>& objects, Scene& scene) {
+  if (auto c = root.optional("contact")) scene.contact = read_contact(*c, scene.objects);
+  if (auto g = root.optional("ground")) {
+    if (!scene.contact) g->fail("needs a top-level \"contact\" section (the ground is a contact barrier)");
+    scene.ground = read_ground(*g);
+  }
+  if (scene.contact) return;
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    for (const char* key : {"self_contact", "obstacle", "ground_contact"}) {
+      if (auto k = objects[i].optional(key))
+        if (k->boolean()) k->fail("is true but the scene has no top-level \"contact\" section");
+    }
+  }
+}
+
 void check_format_version(const JsonNode& root) {
   if (!root.json().is_object()) root.fail_got("a scene file must hold a JSON object {...}");
   const std::string expected = "this reader understands format_version " + std::to_string(kFormatVersion);
@@ -419,7 +457,7 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
   const JsonNode root(doc, "", file);
   check_format_version(root);
   root.expect_keys({"format_version", "name", "description", "time_step", "frames", "gravity", "solver", "wind",
-                    "objects"});
+                    "contact", "ground", "objects"});
 
   Scene scene;
   scene.source_path = path_for_messages;
@@ -450,6 +488,7 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
     }
     scene.objects.push_back(std::move(obj));
   }
+  read_contact_sections(root, list, scene);
   return scene;
 }
 

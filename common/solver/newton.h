@@ -1,5 +1,6 @@
 #pragma once
 // Projected Newton with backtracking line search, minimising an incremental potential.
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,9 @@ struct NewtonSettings {
   int max_iterations = 200;
   int max_line_search_cuts = 40;   // halvings before the line search gives up (no descent)
   HessianProjection projection = HessianProjection::Clamp;
+  // Called with every accepted iterate; it may change the potential's parameters (IPC's adaptive
+  // barrier stiffness), after which the potential is evaluated afresh.
+  std::function<void(const Eigen::VectorXd&)> after_iteration;
 };
 
 struct NewtonReport {

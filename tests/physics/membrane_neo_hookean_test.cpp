@@ -14,6 +14,7 @@
 
 #include "physics/membrane_neo_hookean.h"
 #include "support/finite_difference.h"
+#include "support/triangle_vectors.h"
 
 namespace pd {
 namespace {
@@ -22,16 +23,10 @@ constexpr double kGradTol = 1e-6;
 constexpr double kHessTol = 1e-5;
 const MembraneMaterialParams kCloth = MembraneMaterialParams::from(5e5, 0.3, 1e-3);  // Pa, -, m
 
-Vec<9> stack(const Vec3& a, const Vec3& b, const Vec3& c) {
-  Vec<9> x;
-  x << a, b, c;
-  return x;
-}
-Vec3 vertex(const Vec<9>& x, int v) { return x.segment<3>(3 * v); }
+using test::stack;
+using test::vertex;
+using test::area_of;
 MembraneRest rest_of(const Vec<9>& X) { return membrane_rest(vertex(X, 0), vertex(X, 1), vertex(X, 2)); }
-double area_of(const Vec<9>& x) {
-  return 0.5 * (vertex(x, 1) - vertex(x, 0)).cross(vertex(x, 2) - vertex(x, 0)).norm();
-}
 
 // Random triangle with coordinates in [-1, 1] m and area at least 0.1 m^2 (resampled otherwise).
 Vec<9> random_triangle(std::mt19937& rng) {

@@ -1,9 +1,11 @@
 #include "physics/contact/barrier_potential.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 #include "physics/contact/barrier.h"
 #include "physics/contact/ccd_additive.h"
@@ -30,6 +32,127 @@ std::array<int, 4> edge_edge_stencil(const ContactPrimitives& p, const std::arra
   const auto& a = p.edges[pair[0]];
   const auto& b = p.edges[pair[1]];
   return {a[0], a[1], b[0], b[1]};
+}
+
+// ---- Friction: closest points, normals, tangent bases -----------------------------------------
+
+// Parameter in [0, 1] of the point of segment (a, b) closest to p; 0 for a zero-length segment.
+double segment_parameter(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 e = b - a;
+  const double ee = e.squaredNorm();
+  if (!(ee > 0.0)) return 0.0;
+  return std::clamp((p - a).dot(e) / ee, 0.0, 1.0);
+}
+
+// v normalised, or `fallback` normalised if v is zero (or +z if both are).
+Vec3 unit_or(const Vec3& v, const Vec3& fallback) {
+  if (v.squaredNorm() > 0.0) return v.normalized();
+  if (fallback.squaredNorm() > 0.0) return fallback.normalized();
+  return Vec3::UnitZ();
+}
+
+// Orthonormal (t0, t1) with n x t0 = t1 and both orthogonal to the unit normal n; t0 is `along` with
+// its normal component removed, or, if `along` is (nearly) parallel to n, the coordinate axis least
+// aligned with n, so the basis is defined for every n.
+Eigen::Matrix<double, 3, 2> tangent_basis(const Vec3& n, const Vec3& along) {
+  Vec3 t0 = along - along.dot(n) * n;
+  if (!(t0.squaredNorm() > 1e-12 * along.squaredNorm())) {  // also taken for along = 0
+    Eigen::Index i = 0;
+    n.cwiseAbs().minCoeff(&i);
+    t0 = Vec3::Unit(i) - n[i] * n;
+  }
+  t0.normalize();
+  Eigen::Matrix<double, 3, 2> T;
+  T << t0, n.cross(t0);
+  return T;
+}
+
+// Weights w (sum_k w_k x_k = closest point on the first primitive - closest point on the second), the
+// unit contact normal and the direction the first tangent follows, for one pair.
+//
+// Why the closest points of the pair's distance type (clamped to the primitives) rather than the
+// unclamped plane / line projections: a pair is active up to dhat + offset away, so a point can be
+// beside a triangle (point-edge / point-vertex type) or an edge beside another's endpoint. There the
+// plane projection falls outside the triangle (extrapolating weights < 0 or > 1) and, worse, the
+// plane's tangent basis contains the direction of the barrier force (which pushes along
+// p - closest point), so "friction" would resist approach and separation. With the true closest
+// points the weights are convex combinations on each primitive and the basis is orthogonal to the
+// barrier force of that very pair. For the interior types (P_T, EA_EB) the two choices coincide. The
+// same per-type treatment is IPC's (vertex-vertex, edge-vertex, face-vertex, edge-edge frictions).
+struct ContactFrame {
+  std::array<double, 4> weights{{0, 0, 0, 0}};
+  Vec3 normal = Vec3::UnitZ();
+  Vec3 along = Vec3::UnitX();
+};
+
+ContactFrame point_triangle_frame(const Vec<12>& x12) {
+  const Vec3 p = x12.segment<3>(0);
+  const std::array<Vec3, 3> t{{x12.segment<3>(3), x12.segment<3>(6), x12.segment<3>(9)}};
+  const Vec3 e0 = t[1] - t[0], e1 = t[2] - t[0];
+  const Vec3 tri_normal = e0.cross(e1);
+  std::array<double, 3> b{{0, 0, 0}};  // barycentric coordinates of the closest point
+  const PointTriangleType type = point_triangle_type(x12);
+  const int i = static_cast<int>(type);
+  if (type == PointTriangleType::P_T) {
+    // Projection on the plane: minimise |p - t0 - b1 e0 - b2 e1|^2 (2x2 normal equations).
+    const Vec3 r = p - t[0];
+    const double a00 = e0.dot(e0), a01 = e0.dot(e1), a11 = e1.dot(e1);
+    const double r0 = e0.dot(r), r1 = e1.dot(r);
+    const double det = a00 * a11 - a01 * a01;  // > 0: P_T is only chosen for non-degenerate triangles
+    b[1] = (a11 * r0 - a01 * r1) / det;
+    b[2] = (a00 * r1 - a01 * r0) / det;
+    b[0] = 1.0 - b[1] - b[2];
+  } else if (i <= 2) {  // P_T0..2: a vertex
+    b[i] = 1.0;
+  } else {  // P_E0..2: edge (t_j, t_{j+1})
+    const int j = i - 3, k = (j + 1) % 3;
+    const double s = segment_parameter(p, t[j], t[k]);
+    b[j] = 1.0 - s;
+    b[k] = s;
+  }
+  ContactFrame f;
+  f.weights = {1.0, -b[0], -b[1], -b[2]};
+  const Vec3 c = b[0] * t[0] + b[1] * t[1] + b[2] * t[2];
+  f.normal = type == PointTriangleType::P_T ? unit_or(tri_normal, p - c) : unit_or(p - c, tri_normal);
+  f.along = e0;
+  return f;
+}
+
+ContactFrame edge_edge_frame(const Vec<12>& x12) {
+  const Vec3 a0 = x12.segment<3>(0), a1 = x12.segment<3>(3), b0 = x12.segment<3>(6), b1 = x12.segment<3>(9);
+  const Vec3 ea = a1 - a0, eb = b1 - b0;
+  double s = 0.0, t = 0.0;  // closest points a0 + s ea, b0 + t eb
+  using T = EdgeEdgeType;
+  const EdgeEdgeType type = edge_edge_type(x12);
+  switch (type) {
+    case T::EA0_EB0: s = 0; t = 0; break;
+    case T::EA0_EB1: s = 0; t = 1; break;
+    case T::EA1_EB0: s = 1; t = 0; break;
+    case T::EA1_EB1: s = 1; t = 1; break;
+    case T::EA_EB0: t = 0; s = segment_parameter(b0, a0, a1); break;
+    case T::EA_EB1: t = 1; s = segment_parameter(b1, a0, a1); break;
+    case T::EA0_EB: s = 0; t = segment_parameter(a0, b0, b1); break;
+    case T::EA1_EB: s = 1; t = segment_parameter(a1, b0, b1); break;
+    case T::EA_EB: {
+      // Closest points of the two lines: minimise |r + s ea - t eb|^2, r = a0 - b0. The classifier
+      // only picks EA_EB for non-parallel edges with both parameters inside [0, 1]; the clamp
+      // removes round-off.
+      const Vec3 r = a0 - b0;
+      const double a = ea.dot(ea), b = ea.dot(eb), c = eb.dot(eb), d = ea.dot(r), e = eb.dot(r);
+      const double det = a * c - b * b;
+      s = std::clamp((b * e - c * d) / det, 0.0, 1.0);
+      t = std::clamp((a * e - b * d) / det, 0.0, 1.0);
+      break;
+    }
+  }
+  ContactFrame f;
+  f.weights = {1.0 - s, s, -(1.0 - t), -t};
+  const Vec3 between = (a0 + s * ea) - (b0 + t * eb);
+  // Interior type: ea x eb (exactly the direction between the closest points, without its
+  // cancellation error); otherwise, e.g. (near-)parallel edges, the vector between the closest points.
+  f.normal = type == T::EA_EB ? unit_or(ea.cross(eb), between) : unit_or(between, ea.cross(eb));
+  f.along = ea;
+  return f;
 }
 
 }  // namespace
@@ -156,6 +279,39 @@ ContactStats BarrierPotential::stats(const Eigen::VectorXd& x) const {
     if (gap < dhat) ++(kind == kPointTriangle ? s.active_point_triangle : s.active_edge_edge);
   });
   return s;
+}
+
+void BarrierPotential::set_friction(Eigen::MatrixXd mu) {
+  const Eigen::Index objects = static_cast<Eigen::Index>(primitives_.object_self_contact.size());
+  if (mu.size() != 0) {
+    if (mu.rows() != objects || mu.cols() != objects)
+      throw std::invalid_argument("BarrierPotential::set_friction: mu must be #objects x #objects");
+    if (!mu.allFinite() || (mu.array() < 0.0).any())
+      throw std::invalid_argument("BarrierPotential::set_friction: mu must be finite and >= 0");
+    if (mu != mu.transpose()) throw std::invalid_argument("BarrierPotential::set_friction: mu must be symmetric");
+  }
+  friction_mu_ = std::move(mu);
+}
+
+void BarrierPotential::friction_contacts(const Eigen::VectorXd& x, std::vector<FrictionContact>& out) const {
+  if (friction_mu_.size() == 0) return;
+  const std::vector<int>& object = primitives_.vertex_object;
+  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double) {
+    // Objects of the two primitives: the point and the face (PT), edge a and edge b (EE).
+    const double mu = friction_mu_(object[v[0]], object[v[kind == kPointTriangle ? 1 : 2]]);
+    if (!(mu > 0.0)) return;
+    const ContactFrame frame = kind == kPointTriangle ? point_triangle_frame(x12) : edge_edge_frame(x12);
+    FrictionContact c;
+    c.vertices = v;
+    c.count = 4;
+    c.weights = frame.weights;
+    c.basis = tangent_basis(frame.normal, frame.along);
+    // |d (kappa b) / d d| with d = sqrt(d2): b is a function of d2 and d(d2)/dd = 2 d.
+    c.normal_force = -settings_.kappa * barrier_first_derivative(d2, settings_.dhat, settings_.offset) * 2.0 *
+                     std::sqrt(d2);
+    c.mu = mu;
+    out.push_back(c);
+  });
 }
 
 }  // namespace pd

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "physics/contact/broad_phase.h"
+#include "physics/contact/friction_contact.h"
 #include "physics/energy_term.h"
 
 namespace pd {
@@ -32,7 +33,7 @@ struct ContactStats {
   double min_gap = 0.0;           // min over candidate pairs of d - offset, m (+inf if none)
 };
 
-class BarrierPotential : public EnergyTerm {
+class BarrierPotential : public EnergyTerm, public FrictionSource {
  public:
   // rest: rest positions (rows = global vertices), for the mollifier thresholds.
   BarrierPotential(ContactPrimitives primitives, const Positions& rest, const ContactSettings& settings);
@@ -55,6 +56,26 @@ class BarrierPotential : public EnergyTerm {
   void set_kappa(double kappa) { settings_.kappa = kappa; }
   const ContactPrimitives& primitives() const { return primitives_; }
 
+  // Friction coefficients per pair of objects: mu(a, b) for objects a, b (primitives().vertex_object
+  // ids), dimensionless. Must be #objects x #objects (#objects = object_self_contact.size()),
+  // symmetric, finite and >= 0, else std::invalid_argument; an empty (0 x 0) matrix means no friction,
+  // which is also the default. mu(a, a) is the self-friction of object a.
+  void set_friction(Eigen::MatrixXd mu);
+
+  // FrictionSource: one contact per active pair at x (gap d - offset < dhat) whose objects have
+  // mu > 0, stencil in the barrier's variable order (p, t0, t1, t2) / (ea0, ea1, eb0, eb1):
+  //   normal_force = -kappa b'(d^2) 2 d = kappa |d b / d d|   (N; no edge-edge mollifier, as in IPC)
+  //   weights      = the closest points' barycentric coordinates, signed: (1, -b0, -b1, -b2) /
+  //                  (1 - s, s, -(1 - t), -t), so sum_k w_k x_k = (closest point on the first
+  //                  primitive) - (closest point on the second), the contact's normal vector
+  //   basis        = two orthonormal vectors orthogonal to the contact normal n: the triangle normal
+  //                  (point-triangle interior), ea x eb (edge-edge interiors), else the direction
+  //                  between the closest points; its first column is the triangle's first edge /
+  //                  edge a's direction made orthogonal to n.
+  // The closest points are those of the pair's closest-point type (distance.h), i.e. clamped to the
+  // primitives: see the .cpp for why not the unclamped plane / line projections.
+  void friction_contacts(const Eigen::VectorXd& x, std::vector<FrictionContact>& out) const override;
+
  private:
   // Calls f(kind, stencil, x12, d2, eps_x) for every candidate pair within the activation distance
   // at x: kind 0 = point-triangle, 1 = edge-edge; stencil = the 4 global vertices in variable order;
@@ -71,6 +92,7 @@ class BarrierPotential : public EnergyTerm {
   mutable CandidatePairs cached_pairs_;
   std::vector<double> edge_rest_length2_;  // |e_rest|^2 per edge, for the mollifier threshold
   ContactSettings settings_;
+  Eigen::MatrixXd friction_mu_;  // (#objects, #objects) or empty (no friction)
 };
 
 }  // namespace pd

@@ -366,4 +366,26 @@ CandidatePairs find_swept_candidates(const ContactPrimitives& prims, const Posit
   return run(prims, Motion{V0, &V1}, r);
 }
 
+std::vector<std::array<int, 2>> find_edge_face_candidates(const ContactPrimitives& prims, const Positions& V,
+                                                          double r) {
+  // The same machinery as run(): edges are the queries, faces the targets (as vertices against faces
+  // there), so pairs come out sorted by edge, then face.
+  const Motion x{V, nullptr};
+  std::vector<int> face_object, edge_object;
+  check_input(prims, x, r, face_object, edge_object);
+  const double cell = cell_size(prims, x, r);
+  const int m = static_cast<int>(prims.faces.rows());
+  std::vector<Box> face_box(static_cast<std::size_t>(m)), edge_box(prims.edges.size());
+  for (int f = 0; f < m; ++f) face_box[f] = box_of<3>(x, {prims.faces(f, 0), prims.faces(f, 1), prims.faces(f, 2)}, r);
+  for (std::size_t e = 0; e < prims.edges.size(); ++e) edge_box[e] = box_of<2>(x, prims.edges[e], r);
+  std::vector<std::array<int, 2>> out;
+  collect_pairs(edge_box, face_box, false, cell, [&](int e, int f) {
+    const auto& ev = prims.edges[e];
+    for (int k = 0; k < 3; ++k)
+      if (prims.faces(f, k) == ev[0] || prims.faces(f, k) == ev[1]) return false;
+    return edge_object[e] != face_object[f] || prims.object_self_contact[edge_object[e]] != 0;
+  }, out);
+  return out;
+}
+
 }  // namespace pd

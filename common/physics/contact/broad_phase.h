@@ -57,4 +57,13 @@ CandidatePairs find_candidates(const ContactPrimitives& prims, const Positions& 
 CandidatePairs find_swept_candidates(const ContactPrimitives& prims, const Positions& V0,
                                      const Positions& V1, double r);
 
+// Edge-triangle pairs (edge, face) whose boxes at positions V overlap, with the same box rule and
+// radius r as above, for the start-state intersection check (start_check.h): an edge that pierces a
+// triangle's interior far from its vertices and edges is close to no point-triangle or edge-edge
+// pair, so it needs pairs of its own. Excluded: an edge sharing a vertex with the face (including an
+// edge of the face itself), and pairs within one object whose self-contact flag is off. Output
+// sorted lexicographically by (edge, face), unique, deterministic; input checks as find_candidates.
+std::vector<std::array<int, 2>> find_edge_face_candidates(const ContactPrimitives& prims, const Positions& V,
+                                                          double r);
+
 }  // namespace pd

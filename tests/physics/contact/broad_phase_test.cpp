@@ -337,5 +337,88 @@ TEST(BroadPhase, HandlesAHundredThousandVertexSheet) {
   expect_sorted_unique(c.edge_edge);
 }
 
+// ---- edge-face candidates (find_edge_face_candidates, for the start-state check) -----------------
+
+Pairs brute_force_edge_face(const ContactPrimitives& p, const Positions& V, double r) {
+  const auto& obj = p.vertex_object;
+  Pairs out;
+  for (int e = 0; e < static_cast<int>(p.edges.size()); ++e)
+    for (int f = 0; f < p.faces.rows(); ++f) {
+      const std::vector<int> fv = {p.faces(f, 0), p.faces(f, 1), p.faces(f, 2)};
+      const auto& ev = p.edges[e];
+      const bool share = std::count(fv.begin(), fv.end(), ev[0]) + std::count(fv.begin(), fv.end(), ev[1]) > 0;
+      const bool allowed = obj[ev[0]] != obj[fv[0]] || p.object_self_contact[obj[ev[0]]];
+      if (!share && allowed && boxes_overlap(box({ev[0], ev[1]}, V, nullptr, r), box(fv, V, nullptr, r)))
+        out.push_back({e, f});
+    }
+  return out;
+}
+
+std::size_t expect_edge_face_matches_brute_force(const Scene& s, double r) {
+  const Pairs fast = find_edge_face_candidates(s.prims, s.V, r);
+  const Pairs slow = brute_force_edge_face(s.prims, s.V, r);
+  EXPECT_EQ(fast, slow) << "r = " << r;
+  expect_sorted_unique(fast);
+  return slow.size();
+}
+
+TEST(BroadPhaseEdgeFace, MatchesBruteForce) {
+  std::size_t total = 0;
+  std::mt19937 rng(4242);
+  for (int trial = 0; trial < 8; ++trial) {
+    Scene s;
+    for (int o = 0; o < 3; ++o) add_random_soup(s, rng, 30, (trial + o) % 2 == 0);
+    for (double r : {0.0, 0.01, 0.05, 0.2}) total += expect_edge_face_matches_brute_force(s, r);
+  }
+  Scene folded;  // a folded sheet with self-contact over a flat one without
+  folded.add(folded_sheet(0.004), true);
+  TriMesh below = make_rectangle(0.3, 0.3, 9, 9);
+  below.V.col(2).array() -= 0.003;
+  folded.add(below, false);
+  for (double r : {0.0, 0.001, 0.005, 0.03}) EXPECT_GT(expect_edge_face_matches_brute_force(folded, r), 0u);
+  Scene oversized;  // a 100 m ground of two triangles: boxes beyond the cell limit take the direct path
+  oversized.add(make_rectangle(100.0, 100.0, 1, 1), false);
+  TriMesh sheet = make_rectangle(0.2, 0.2, 10, 10);
+  sheet.V.col(2).array() += 0.002;
+  oversized.add(sheet, true);
+  for (double r : {0.0, 0.005}) EXPECT_GT(expect_edge_face_matches_brute_force(oversized, r), 0u);
+  Scene faces_only = folded;  // no edges at all: no pairs
+  faces_only.prims.edges.clear();
+  EXPECT_TRUE(find_edge_face_candidates(faces_only.prims, faces_only.V, 0.01).empty());
+  EXPECT_GT(total, 1000u);  // the comparison is not vacuous
+}
+
+TEST(BroadPhaseEdgeFace, ExcludesSharedVerticesAndSelfContactOff) {
+  // Unit square split along 0-2: every edge touches every face, so nothing remains even though all
+  // boxes overlap.
+  Scene square;
+  Positions V(4, 3);
+  V << 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0;
+  Faces F(2, 3);
+  F << 0, 1, 2, 0, 2, 3;
+  square.add(V, F, true);
+  EXPECT_TRUE(find_edge_face_candidates(square.prims, square.V, 10.0).empty());
+  // Two separate triangles (A: vertices 0-2, B: 3-5) in one object: 3 edges of each against the
+  // other's face, but none with self-contact off; as two objects, all 6 whatever the flags.
+  Positions T(6, 3);
+  T << 0, 0, 0, 1, 0, 0, 0, 1, 0,  //
+      0.2, 0.2, 0.5, 0.9, 0.3, 0.5, 0.3, 0.9, 0.5;
+  Faces FT(2, 3);
+  FT << 0, 1, 2, 3, 4, 5;
+  for (bool self : {true, false}) {
+    Scene one;
+    one.add(T, FT, self);
+    EXPECT_EQ(find_edge_face_candidates(one.prims, one.V, 1.0).size(), self ? 6u : 0u);
+    Scene two;
+    Faces single(1, 3);
+    single << 0, 1, 2;
+    two.add(T.topRows(3), single, self);
+    two.add(T.bottomRows(3), single, self);
+    EXPECT_EQ(find_edge_face_candidates(two.prims, two.V, 1.0),
+              (Pairs{{0, 1}, {1, 1}, {2, 1}, {3, 0}, {4, 0}, {5, 0}}));
+  }
+  EXPECT_THROW(find_edge_face_candidates(square.prims, square.V, -1.0), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace pd
