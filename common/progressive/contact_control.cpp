@@ -60,8 +60,12 @@ void ContactControl::set_kappa(double kappa) {
 void ContactControl::begin_step(const IncrementalPotential& ip, const StepStart& step) {
   if (!has_barrier()) return;
   const Eigen::VectorXd& x = *step.x;
-  if (adaptive_) {
-    // Gradient balance at the start of the step, over free dofs only.
+  if (adaptive_ && !kappa_initialized_) {
+    // Gradient balance at the start of the first step only, over free dofs (IPC). Balancing again
+    // at every step would fit kappa to whatever forces the barrier can cancel at that instant,
+    // including the in-plane ones of pairs beside a vertex (a cloth vertex near a shared edge of
+    // a flat obstacle), and the inflated kappa then pins resting cloth in place: a sheet on a 35
+    // degree slope with friction 0.5 stuck with kappa 2e6 and slid with the first step's 2e5.
     Eigen::VectorXd unit = Eigen::VectorXd::Zero(x.size());
     if (mesh) unit += mesh->unit_stiffness_gradient(x);
     if (ground) unit += ground->unit_stiffness_gradient(x);
@@ -69,6 +73,7 @@ void ContactControl::begin_step(const IncrementalPotential& ip, const StepStart&
       if (fixed_[i]) unit[i] = 0;
     const Eigen::VectorXd energy_gradient = ip.gradient(x) - kappa_ * unit;
     set_kappa(initial_barrier_stiffness(energy_gradient, unit, bounds_));
+    kappa_initialized_ = true;
   }
   prev_min_gap_ = min_gap(x);
   // Friction lags its normal forces from kappa: lag again now that kappa is final for this start.

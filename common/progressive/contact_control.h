@@ -4,10 +4,11 @@
 // barrier stiffness kappa (IPC), refuses start states that already intersect, and reports
 // per-frame contact statistics.
 //
-// kappa (J/m^4) is one value for the mesh barrier and the ground, as in IPC: at the start of each
-// step it is set by gradient balance (barrier.h: initial_barrier_stiffness) and during the step it
-// is doubled when the smallest gap keeps shrinking below 1e-6 dhat (update_barrier_stiffness). A
-// scene that gives contact.stiffness keeps that value throughout.
+// kappa (J/m^4) is one value for the mesh barrier and the ground, as in IPC: at the start of the
+// first step it is set by gradient balance (barrier.h: initial_barrier_stiffness), and after every
+// Newton iteration it is doubled when the smallest gap keeps shrinking below 1e-6 dhat
+// (update_barrier_stiffness); it never decreases. A scene that gives contact.stiffness keeps that
+// value throughout.
 #include <string>
 #include <utility>
 #include <vector>
@@ -39,7 +40,8 @@ class ContactControl {
   bool has_barrier() const { return mesh || ground; }
 
   // Before the Newton iterations of a step, after the potential's begin_step (the inertia target
-  // must be set for the gradient balance): sets kappa, then re-lags friction with it.
+  // must be set for the gradient balance): sets the initial kappa on the first step, then re-lags
+  // friction with the current kappa.
   void begin_step(const IncrementalPotential& ip, const StepStart& step);
   // After each accepted Newton iterate x: the IPC doubling rule.
   void after_iteration(const Eigen::VectorXd& x);
@@ -61,6 +63,7 @@ class ContactControl {
   double dhat_ = 0.0;
   BarrierStiffnessBounds bounds_;
   double kappa_ = 0.0;
+  bool kappa_initialized_ = false;
   double prev_min_gap_ = 0.0;
   std::vector<char> fixed_;  // per dof, as the potential's (pinned gradients do not count)
 };

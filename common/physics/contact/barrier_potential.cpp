@@ -70,15 +70,16 @@ Eigen::Matrix<double, 3, 2> tangent_basis(const Vec3& n, const Vec3& along) {
 // Weights w (sum_k w_k x_k = closest point on the first primitive - closest point on the second), the
 // unit contact normal and the direction the first tangent follows, for one pair.
 //
-// Why the closest points of the pair's distance type (clamped to the primitives) rather than the
-// unclamped plane / line projections: a pair is active up to dhat + offset away, so a point can be
-// beside a triangle (point-edge / point-vertex type) or an edge beside another's endpoint. There the
-// plane projection falls outside the triangle (extrapolating weights < 0 or > 1) and, worse, the
-// plane's tangent basis contains the direction of the barrier force (which pushes along
-// p - closest point), so "friction" would resist approach and separation. With the true closest
-// points the weights are convex combinations on each primitive and the basis is orthogonal to the
-// barrier force of that very pair. For the interior types (P_T, EA_EB) the two choices coincide. The
-// same per-type treatment is IPC's (vertex-vertex, edge-vertex, face-vertex, edge-edge frictions).
+// Weights: the closest points of the pair's distance type, clamped to the primitives, so they are
+// convex combinations on each primitive. Normal (the direction friction never acts along): the
+// triangle's normal for every point-triangle type and ea x eb for every edge-edge pair that is not
+// (nearly) parallel, as in IPC's friction. Not the vector between the closest points: a pair is
+// active up to dhat + offset away, so a cloth vertex resting on a flat tessellated obstacle also
+// pairs with the triangles beside the one under it; their closest-point vectors lean sideways, and a
+// basis orthogonal to them contains the obstacle's normal, so static friction would hold the cloth at
+// its height and keep it from sliding (measured: a sheet on a 35 degree slope with friction 0.5 did
+// not move). Parallel edges have no ea x eb and fall back to the vector between the closest points;
+// their barrier, and so their normal force, is mollified to nearly zero anyway.
 struct ContactFrame {
   std::array<double, 4> weights{{0, 0, 0, 0}};
   Vec3 normal = Vec3::UnitZ();
@@ -113,7 +114,7 @@ ContactFrame point_triangle_frame(const Vec<12>& x12) {
   ContactFrame f;
   f.weights = {1.0, -b[0], -b[1], -b[2]};
   const Vec3 c = b[0] * t[0] + b[1] * t[1] + b[2] * t[2];
-  f.normal = type == PointTriangleType::P_T ? unit_or(tri_normal, p - c) : unit_or(p - c, tri_normal);
+  f.normal = unit_or(tri_normal, p - c);
   f.along = e0;
   return f;
 }
@@ -148,9 +149,11 @@ ContactFrame edge_edge_frame(const Vec<12>& x12) {
   ContactFrame f;
   f.weights = {1.0 - s, s, -(1.0 - t), -t};
   const Vec3 between = (a0 + s * ea) - (b0 + t * eb);
-  // Interior type: ea x eb (exactly the direction between the closest points, without its
-  // cancellation error); otherwise, e.g. (near-)parallel edges, the vector between the closest points.
-  f.normal = type == T::EA_EB ? unit_or(ea.cross(eb), between) : unit_or(between, ea.cross(eb));
+  // ea x eb unless the edges are parallel to within ~1e-3 rad (sin^2 < 1e-6), where its direction is
+  // round-off; then the vector between the closest points.
+  const Vec3 cross = ea.cross(eb);
+  const bool parallel = !(cross.squaredNorm() > 1e-6 * ea.squaredNorm() * eb.squaredNorm());
+  f.normal = parallel ? unit_or(between, cross) : cross.normalized();
   f.along = ea;
   return f;
 }
@@ -296,7 +299,7 @@ void BarrierPotential::set_friction(Eigen::MatrixXd mu) {
 void BarrierPotential::friction_contacts(const Eigen::VectorXd& x, std::vector<FrictionContact>& out) const {
   if (friction_mu_.size() == 0) return;
   const std::vector<int>& object = primitives_.vertex_object;
-  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double) {
+  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double eps_x) {
     // Objects of the two primitives: the point and the face (PT), edge a and edge b (EE).
     const double mu = friction_mu_(object[v[0]], object[v[kind == kPointTriangle ? 1 : 2]]);
     if (!(mu > 0.0)) return;
@@ -309,6 +312,7 @@ void BarrierPotential::friction_contacts(const Eigen::VectorXd& x, std::vector<F
     // |d (kappa b) / d d| with d = sqrt(d2): b is a function of d2 and d(d2)/dd = 2 d.
     c.normal_force = -settings_.kappa * barrier_first_derivative(d2, settings_.dhat, settings_.offset) * 2.0 *
                      std::sqrt(d2);
+    if (kind == kEdgeEdge) c.normal_force *= edge_edge_mollifier(x12, eps_x);
     c.mu = mu;
     out.push_back(c);
   });

@@ -22,7 +22,8 @@ struct FrictionContact {
   std::array<double, 4> weights{{0, 0, 0, 0}};    // w_k, dimensionless (see above)
   Eigen::Matrix<double, 3, 2> basis = Eigen::Matrix<double, 3, 2>::Zero();  // T: orthonormal columns
                                                                             // spanning the tangent plane
-  double normal_force = 0.0;  // lambda >= 0, N (kappa * |d barrier / d distance| at the step start)
+  double normal_force = 0.0;  // lambda >= 0, N: kappa * |d barrier / d distance| at the step start
+                              // (times the edge-edge mollifier, so it is the force the pair exerts)
   double mu = 0.0;            // Coulomb coefficient of this contact's pair of objects, >= 0
 };
 

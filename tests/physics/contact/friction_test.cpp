@@ -17,6 +17,7 @@
 #include "physics/contact/barrier.h"
 #include "physics/contact/barrier_potential.h"
 #include "physics/contact/distance.h"
+#include "physics/contact/edge_edge_mollifier.h"
 #include "support/term_eval.h"
 #include "support/two_squares.h"
 
@@ -360,6 +361,12 @@ TEST(FrictionTerm, VertexPushedOnAFixedTriangleSticksBelowMuLambdaAndSlidesAbove
 
 // ---- BarrierPotential as a friction source ----------------------------------------------------
 
+// |ea_rest|^2 |eb_rest|^2 of an edge-edge contact's two edges (the mollifier threshold's factor).
+double edge_rest2(const TwoSquares& s, const FrictionContact& c) {
+  auto len2 = [&](int a, int b) { return (s.rest.row(a) - s.rest.row(b)).squaredNorm(); };
+  return len2(c.vertices[0], c.vertices[1]) * len2(c.vertices[2], c.vertices[3]);
+}
+
 ContactSettings two_squares_settings() {
   ContactSettings cs;
   cs.dhat = 0.2;
@@ -418,8 +425,21 @@ TEST(BarrierPotentialFriction, ContactsHaveOrthonormalBasesOrthogonalToTheNormal
     for (int k = 0; k < 4; ++k) between += c.weights[k] * x12.segment<3>(3 * k);
     EXPECT_NEAR(between.squaredNorm(), d2, 1e-12 * d2);
     EXPECT_LT((c.basis.transpose() * c.basis - Eigen::Matrix2d::Identity()).norm(), 1e-14);
-    EXPECT_LT((c.basis.transpose() * between).norm(), 1e-12 * between.norm());
-    const double lambda = -cs.kappa * barrier_first_derivative(d2, cs.dhat, cs.offset) * 2.0 * std::sqrt(d2);
+    // The basis is orthogonal to the triangle's normal (point-triangle) or to ea x eb (edge-edge
+    // that are not parallel), IPC's friction planes, whatever the closest-point type; for interior
+    // types that normal is also the direction between the closest points.
+    const Vec3 normal = is_pt ? Vec3((x12.segment<3>(6) - x12.segment<3>(3)).cross(x12.segment<3>(9) - x12.segment<3>(3)))
+                              : Vec3((x12.segment<3>(3) - x12.segment<3>(0)).cross(x12.segment<3>(9) - x12.segment<3>(6)));
+    EXPECT_LT((c.basis.transpose() * normal).norm(), 1e-12 * normal.norm());
+    const bool interior = is_pt ? point_triangle_type(x12) == PointTriangleType::P_T
+                                : edge_edge_type(x12) == EdgeEdgeType::EA_EB;
+    if (interior) {
+      EXPECT_LT((c.basis.transpose() * between).norm(), 1e-9 * between.norm());
+    }
+    // lambda: the pair's barrier force, mollified for edge-edge pairs like the barrier itself.
+    const double mollifier = is_pt ? 1.0 : edge_edge_mollifier(x12, kEdgeEdgeMollifierScale * edge_rest2(s, c));
+    const double lambda =
+        -cs.kappa * barrier_first_derivative(d2, cs.dhat, cs.offset) * 2.0 * std::sqrt(d2) * mollifier;
     EXPECT_GT(c.normal_force, 0.0);
     EXPECT_NEAR(c.normal_force, lambda, 1e-12 * lambda);
   }
