@@ -28,7 +28,9 @@ struct NewtonReport {
   int iterations = 0;              // Newton systems solved
   int line_search_cuts = 0;        // halvings over all iterations
   bool converged = false;
-  std::string stop_reason;         // "converged" | "max_iterations" | "no_descent" | "factorization_failed"
+  // "converged" | "max_iterations" | "no_descent" | "factorization_failed", or "pins_blocked" (set
+  // by the level stepper when scripted pins could not reach their targets)
+  std::string stop_reason;
   std::vector<double> step_measures;   // ||p||_inf / h per iteration, m/s
   std::vector<double> gradient_norms;  // ||grad||_2 at the start of each iteration, and at the end
   double assemble_seconds = 0.0, analyse_seconds = 0.0, factorize_seconds = 0.0, solve_seconds = 0.0,

@@ -3,11 +3,13 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 
+#include "store/frame_store.h"
 #include "support/test_paths.h"
 
 namespace pd {
@@ -123,6 +125,47 @@ TEST(PdCli, SimulateThenExportWritesOneObjPerFrame) {
   EXPECT_EQ(objs, 4);  // frames 0..3
   const CliResult lvl = run_pd("export " + dir + "/out.h5 --level 3 --out " + dir + "/frames2");
   EXPECT_EQ(lvl.exit_code, 2) << lvl.output;
+}
+
+TEST(PdCli, ContactSceneRunsAndStoresContactStatistics) {
+  const std::string dir = test::scratch_dir("cli_contact");
+  const CliResult sim =
+      run_pd("simulate " + test::source_dir() + "/scenes/slope-friction.json --frames 5 --quiet --out " + dir + "/s.h5");
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  const FrameReader reader(dir + "/s.h5");
+  const auto names = reader.stat_names(0);
+  for (const char* name : {"contact_active_pairs", "contact_min_gap", "barrier_stiffness", "friction_contacts"})
+    EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
+  EXPECT_GT(reader.stat(0, "contact_active_pairs")[5], 0);  // both squares have landed by frame 5
+  const CliResult exp = run_pd("export " + dir + "/s.h5 --level 0 --format obj --out " + dir + "/frames");
+  EXPECT_EQ(exp.exit_code, 0) << exp.output;
+}
+
+TEST(PdCli, ObjectsThatStartIntersectingAreRejectedBeforeSimulating) {
+  const std::string dir = test::scratch_dir("cli_intersecting");
+  // The sheet (4 x 4 cells, 0.5 m, in the z = 0 plane) passes through a ball at the origin.
+  const std::string scene = R"({"format_version": 1, "time_step": 0.01, "frames": 3,
+    "contact": {"dhat": 1e-3},
+    "objects": [
+      {"name": "sheet", "mesh": {"type": "rectangle", "size": [0.5, 0.5], "cells": [4, 4]},
+       "material": {"preset": "cotton"}},
+      {"name": "ball", "mesh": {"type": "icosphere", "radius": 0.1, "subdivisions": 2}, "obstacle": true}]})";
+  const std::string path = write_file(dir, "bad.json", scene);
+  const CliResult r = run_pd("simulate " + path + " --out " + dir + "/o.h5");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("bad.json: contact: the objects start intersecting"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("'sheet'"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("'ball'"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/o.h5")) << "no frame file for a scene that cannot start";
+}
+
+TEST(PdCli, NegativeDhatNamesTheKey) {
+  const std::string dir = test::scratch_dir("cli_dhat");
+  std::string scene = small_scene();
+  scene.insert(scene.find("\"objects\""), R"("contact": {"dhat": -0.001}, )");
+  const CliResult r = run_pd("simulate " + write_file(dir, "s.json", scene) + " --out " + dir + "/o.h5");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("s.json: contact.dhat"), std::string::npos) << r.output;
 }
 
 }  // namespace
