@@ -35,6 +35,18 @@ void add_pins(const PinGroup& group, int offset, SceneSystem& sys) {
   for (int v : group.vertices) sys.pins.push_back({offset + v, sys.x0.segment<3>(3 * (offset + v)), script});
 }
 
+// Where a vertex starting at X is at time t under keyframed motion (see PinScript).
+Vec3 keyframed_position(const std::vector<Keyframe>& keys, const Vec3& X, double t) {
+  if (t <= keys.front().time) return keys.front().rotation * X + keys.front().translation;
+  if (t >= keys.back().time) return keys.back().rotation * X + keys.back().translation;
+  const auto next = std::upper_bound(keys.begin(), keys.end(), t,
+                                     [](double time, const Keyframe& k) { return time < k.time; });
+  const Keyframe& a = *(next - 1);
+  const Keyframe& b = *next;
+  const double s = (t - a.time) / (b.time - a.time);
+  return a.rotation.slerp(s, b.rotation) * X + (1.0 - s) * a.translation + s * b.translation;
+}
+
 }  // namespace
 
 SceneSystem build_scene_system(const Scene& scene) {
@@ -127,6 +139,7 @@ SceneSystem build_scene_system(const Scene& scene) {
 Vec3 pin_position(const SceneSystem& sys, const PinnedVertex& pin, double t) {
   if (pin.script < 0) return pin.start;
   const PinScript& s = sys.scripts[pin.script];
+  if (!s.keyframes.empty()) return keyframed_position(s.keyframes, pin.start, t);
   const double tau = std::clamp(t - s.start, 0.0, s.end - s.start);
   const double rate = s.angular_velocity.norm();
   Mat3 R = Mat3::Identity();

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "geometry/mesh.h"
 #include "physics/hessian_projection.h"
 
@@ -23,14 +25,26 @@ struct Material {
   double bending_rigidity() const;
 };
 
+// One pose of a keyframed rigid motion: at `time` (s) a vertex with initial position X is at
+// rotation * X + translation (m).
+struct Keyframe {
+  double time = 0.0;
+  Vec3 translation = Vec3::Zero();
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+};
+
 // Rigid motion applied to pinned vertices over time: a pinned vertex with rest-frame position X
-// (its initial position) is at  c + R(omega * s) (X - c) + velocity * s,  s = clamp(t - start, 0, end - start).
+// (its initial position) is at  c + R(omega * s) (X - c) + velocity * s,  s = clamp(t - start, 0, end - start),
+// or, when `keyframes` is not empty, at the keyframed pose (translation interpolated linearly,
+// rotation by quaternion slerp; held before the first and after the last keyframe; the first
+// keyframe is at t = 0 with the identity pose, added by the reader if the file starts later).
 struct PinScript {
   Vec3 velocity = Vec3::Zero();          // m/s
   Vec3 angular_velocity = Vec3::Zero();  // rad/s, axis * rate (right-hand rule)
   Vec3 center = Vec3::Zero();            // m, centre of rotation at time `start`
   double start = 0.0;                    // s
   double end = 1e300;                    // s
+  std::vector<Keyframe> keyframes;       // times strictly increasing; replaces the fields above
 };
 
 struct PinGroup {

@@ -237,9 +237,47 @@ Material read_material(const JsonNode& node) {
   return m;
 }
 
+// "keyframes": [{"time", "translation", "rotation": {"axis", "angle_deg"}}, ...], times increasing.
+std::vector<Keyframe> read_keyframes(const JsonNode& node) {
+  std::vector<Keyframe> keys;
+  for (const JsonNode& k : node.elements()) {
+    k.expect_keys({"time", "translation", "rotation"});
+    Keyframe key;
+    JsonNode time = k.required("time");
+    key.time = time.at_least(0.0);
+    if (!keys.empty() && !(key.time > keys.back().time))
+      time.fail_got("must be later than the previous keyframe's time (" + format_number(keys.back().time) + ")");
+    if (auto tr = k.optional("translation")) key.translation = tr->vec3();
+    if (auto r = k.optional("rotation")) {
+      r->expect_keys({"axis", "angle_deg"});
+      JsonNode axis_node = r->required("axis");
+      const Vec3 axis = axis_node.vec3();
+      if (!(axis.norm() > 0.0)) axis_node.fail_got("must be a non-zero vector");
+      key.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(r->required("angle_deg").number() * kPi / 180.0, axis.normalized()));
+    }
+    keys.push_back(key);
+  }
+  if (keys.empty()) node.fail_got("must list at least one keyframe");
+  // The motion starts from the initial pose: an implicit identity keyframe at t = 0, and a first
+  // keyframe at t = 0 must be the identity (anything else would teleport the vertices at t = 0).
+  if (keys.front().time > 0.0) {
+    keys.insert(keys.begin(), Keyframe{});
+  } else if (!keys.front().translation.isZero(0.0) || !keys.front().rotation.coeffs().isApprox(Keyframe{}.rotation.coeffs(), 0.0)) {
+    node.elements().front().fail("is at time 0 but not the initial pose (zero translation and rotation): the motion "
+                                 "would jump at the first step");
+  }
+  return keys;
+}
+
 PinScript read_script(const JsonNode& node) {
-  node.expect_keys({"velocity", "angular_velocity", "center", "start", "end"});
+  node.expect_keys({"velocity", "angular_velocity", "center", "start", "end", "keyframes"});
   PinScript s;
+  if (auto k = node.optional("keyframes")) {
+    for (const char* key : {"velocity", "angular_velocity", "center", "start", "end"})
+      if (auto other = node.optional(key)) other->fail("cannot be combined with \"keyframes\"");
+    s.keyframes = read_keyframes(*k);
+    return s;
+  }
   if (auto v = node.optional("velocity")) s.velocity = v->vec3();
   if (auto w = node.optional("angular_velocity")) s.angular_velocity = w->vec3();
   if (auto c = node.optional("center")) s.center = c->vec3();

@@ -187,6 +187,33 @@ TEST(LevelStepper, ScriptedPinsFollowTheirScriptExactly) {
   }
 }
 
+TEST(LevelStepper, KeyframedPinsFollowTheInterpolatedPoses) {
+  Scene scene = make_scene(0.01, 15, Vec3(0, -9.81, 0));
+  scene.objects.push_back(make_object("sheet", make_rectangle(1.0, 1.0, 6, 6), test::cotton()));
+  PinGroup pins;
+  pins.vertices = {0, 6};
+  PinScript script;
+  Keyframe up;
+  up.time = 0.1;
+  up.translation = Vec3(0, 0.05, 0);
+  up.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Vec3::UnitY()));
+  script.keyframes = {Keyframe{}, up};
+  pins.script = script;
+  scene.objects[0].pins.push_back(pins);
+  SceneSystem sys = build_scene_system(scene);
+  // Half way (t = 0.05 s): half the translation and half the rotation angle (slerp).
+  const Mat3 half = Eigen::AngleAxisd(0.15, Vec3::UnitY()).toRotationMatrix();
+  const Vec3 x0 = sys.x0.segment<3>(0);
+  EXPECT_LT((pin_position(sys, sys.pins[0], 0.05) - (half * x0 + Vec3(0, 0.025, 0))).norm(), 1e-14);
+  // After the last keyframe the pose is held.
+  const Eigen::VectorXd x = run_scene(scene, sys);
+  const Mat3 full = Eigen::AngleAxisd(0.3, Vec3::UnitY()).toRotationMatrix();
+  for (int k = 0; k < 2; ++k) {
+    const int i = sys.pins[k].vertex;
+    EXPECT_LT((x.segment<3>(3 * i) - (full * sys.x0.segment<3>(3 * i) + Vec3(0, 0.05, 0))).norm(), 1e-14);
+  }
+}
+
 TEST(LevelStepper, SameInputsGiveBitIdenticalFrames) {
   auto run = [] {
     Scene scene = make_scene(0.01, 15, Vec3(0, -9.81, 0));

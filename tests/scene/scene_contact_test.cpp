@@ -78,6 +78,39 @@ TEST(SceneContact, AnObstacleNeedsNoMaterial) {
   EXPECT_FALSE(scene.objects[1].wind);
 }
 
+TEST(SceneContact, KeyframedObstacleMotionStartsFromTheInitialPose) {
+  json s = contact_scene();
+  s["objects"][1]["motion"] = json::parse(R"({"keyframes": [
+    {"time": 0.5, "translation": [0, 0.1, 0]},
+    {"time": 1.0, "translation": [0, 0.1, 0], "rotation": {"axis": [0, 1, 0], "angle_deg": 90}}]})");
+  const Scene scene = parse(s);
+  const auto& keys = scene.objects[1].motion->keyframes;
+  ASSERT_EQ(keys.size(), 3u);  // the identity keyframe at t = 0 is added
+  EXPECT_EQ(keys[0].time, 0.0);
+  EXPECT_EQ(keys[0].translation, Vec3::Zero());
+  EXPECT_EQ(keys[1].translation, Vec3(0, 0.1, 0));
+  EXPECT_NEAR(keys[2].rotation.angularDistance(Eigen::Quaterniond::Identity()), M_PI / 2, 1e-15);
+}
+
+TEST(SceneContactErrors, BadKeyframesAreRejected) {
+  const std::pair<const char*, const char*> cases[] = {
+      {R"({"keyframes": []})", "objects[1].motion.keyframes: must list at least one keyframe"},
+      {R"({"keyframes": [{"time": 1.0}, {"time": 0.5}]})",
+       "objects[1].motion.keyframes[1].time: must be later than the previous keyframe's time (1)"},
+      {R"({"keyframes": [{"time": 0, "translation": [1, 0, 0]}]})",
+       "objects[1].motion.keyframes[0]: is at time 0 but not the initial pose"},
+      {R"({"keyframes": [{"time": 1, "rotation": {"axis": [0, 0, 0], "angle_deg": 5}}]})",
+       "objects[1].motion.keyframes[0].rotation.axis: must be a non-zero vector"},
+      {R"({"velocity": [1, 0, 0], "keyframes": [{"time": 1}]})",
+       "objects[1].motion.velocity: cannot be combined with \"keyframes\""},
+  };
+  for (const auto& [motion, expected] : cases) {
+    json s = contact_scene();
+    s["objects"][1]["motion"] = json::parse(motion);
+    expect_error(s, {expected});
+  }
+}
+
 TEST(SceneContactErrors, ContactParametersOutOfRangeAreRejected) {
   const std::pair<const char*, const char*> cases[] = {
       {R"({"dhat": -1e-3})", "contact.dhat"},
