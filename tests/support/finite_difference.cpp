@@ -29,29 +29,38 @@ FdResult check_gradient(const std::function<double(const Eigen::VectorXd&)>& f,
   return r;
 }
 
-FdResult check_hessian(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& grad,
-                       const Eigen::VectorXd& x, const Eigen::MatrixXd& analytic,
-                       const std::vector<double>& steps) {
+FdResult check_jacobian(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& f,
+                        const Eigen::VectorXd& x, const Eigen::MatrixXd& analytic,
+                        const std::vector<double>& steps) {
   FdResult r;
   const double scale = std::max(analytic.norm(), 1e-12);
   for (double eps : steps) {
-    Eigen::MatrixXd fd(x.size(), x.size());
+    Eigen::MatrixXd fd(analytic.rows(), x.size());
     Eigen::VectorXd xp = x;
     for (Eigen::Index i = 0; i < x.size(); ++i) {
       const double xi = x[i];
       xp[i] = xi + eps;
-      const Eigen::VectorXd gp = grad(xp);
+      const Eigen::VectorXd fp = f(xp);
       xp[i] = xi - eps;
-      const Eigen::VectorXd gm = grad(xp);
+      const Eigen::VectorXd fm = f(xp);
       xp[i] = xi;
-      fd.col(i) = (gp - gm) / (2 * eps);
+      fd.col(i) = (fp - fm) / (2 * eps);
     }
-    r.comparisons += static_cast<int>(x.size() * x.size());
+    r.comparisons += static_cast<int>(analytic.size());
     const double err = (fd - analytic).norm() / scale;
     r.rel_errors.push_back(err);
-    if (err < r.best_rel_error) { r.best_rel_error = err; r.best_step = eps; }
+    if (err < r.best_rel_error) {
+      r.best_rel_error = err;
+      r.best_step = eps;
+    }
   }
   return r;
+}
+
+FdResult check_hessian(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& grad,
+                       const Eigen::VectorXd& x, const Eigen::MatrixXd& analytic,
+                       const std::vector<double>& steps) {
+  return check_jacobian(grad, x, analytic, steps);
 }
 
 }  // namespace pd::test

@@ -34,7 +34,12 @@ FdResult check_gradient(const std::function<double(const Eigen::VectorXd&)>& f,
                         const Eigen::VectorXd& x, const Eigen::VectorXd& analytic_gradient,
                         const std::vector<double>& steps = default_steps());
 
-// Hessian: differences of the analytic gradient.
+// Jacobian of a vector function f (rows: outputs, columns: inputs) against `analytic`.
+FdResult check_jacobian(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& f,
+                        const Eigen::VectorXd& x, const Eigen::MatrixXd& analytic,
+                        const std::vector<double>& steps = default_steps());
+
+// Hessian: differences of the analytic gradient (the Jacobian of the gradient).
 FdResult check_hessian(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& grad,
                        const Eigen::VectorXd& x, const Eigen::MatrixXd& analytic_hessian,
                        const std::vector<double>& steps = default_steps());
