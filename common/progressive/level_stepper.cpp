@@ -62,6 +62,8 @@ int LevelStepper::move_pins(double t_end, Eigen::VectorXd& x, const NewtonSettin
     x = target;
     return 0;
   }
+  // Nothing free to make room (a scene of obstacles only): the pins are blocked.
+  if (!(sys_.average_free_mass > 0)) return -1;
   PinTargetTerm& pull = *sys_.pin_target;
   const std::vector<char> fixed = sys_.ip.fixed_dofs();
   std::vector<char> free_scripted = fixed;
