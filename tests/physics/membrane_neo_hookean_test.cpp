@@ -28,15 +28,7 @@ using test::vertex;
 using test::area_of;
 MembraneRest rest_of(const Vec<9>& X) { return membrane_rest(vertex(X, 0), vertex(X, 1), vertex(X, 2)); }
 
-// Random triangle with coordinates in [-1, 1] m and area at least 0.1 m^2 (resampled otherwise).
-Vec<9> random_triangle(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Vec<9> x;
-  do {
-    for (int i = 0; i < 9; ++i) x[i] = u(rng);
-  } while (area_of(x) < 0.1);
-  return x;
-}
+using test::random_triangle;
 
 // FD checks of one element's gradient and Hessian (exact, unprojected) at x.
 void expect_element_derivatives_match_fd(const Vec<9>& x, const MembraneRest& rest,

@@ -57,15 +57,7 @@ Vec<9> mapped(const Eigen::Matrix2d& A, const Mat3& R = Mat3::Identity(), const 
 }
 Eigen::Matrix2d diag2(double a, double b) { return Eigen::Vector2d(a, b).asDiagonal(); }
 
-// Random triangle with coordinates in [-1, 1] m and area >= 0.1 m^2.
-Vec<9> random_triangle(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Vec<9> x;
-  do {
-    for (int i = 0; i < 9; ++i) x[i] = u(rng);
-  } while (area_of(x) < 0.1);
-  return x;
-}
+using test::random_triangle;
 
 double min_eigenvalue(const Eigen::MatrixXd& H) {
   return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(H, Eigen::EigenvaluesOnly).eigenvalues()[0];
