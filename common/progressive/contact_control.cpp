@@ -81,11 +81,14 @@ void ContactControl::begin_step(const IncrementalPotential& ip, const StepStart&
   if (friction) friction->begin_step(step);
 }
 
-void ContactControl::after_iteration(const Eigen::VectorXd& x) {
-  if (!has_barrier() || !adaptive_) return;
+bool ContactControl::after_iteration(const Eigen::VectorXd& x) {
+  if (!has_barrier() || !adaptive_) return false;
   const double gap = min_gap(x);
-  set_kappa(update_barrier_stiffness(prev_min_gap_, gap, dhat_, kappa_, bounds_.kappa_max));
+  const double kappa = update_barrier_stiffness(prev_min_gap_, gap, dhat_, kappa_, bounds_.kappa_max);
   prev_min_gap_ = gap;
+  if (kappa == kappa_) return false;
+  set_kappa(kappa);
+  return true;
 }
 
 double ContactControl::min_gap(const Eigen::VectorXd& x) const {

@@ -43,8 +43,8 @@ class ContactControl {
   // must be set for the gradient balance): sets the initial kappa on the first step, then re-lags
   // friction with the current kappa.
   void begin_step(const IncrementalPotential& ip, const StepStart& step);
-  // After each accepted Newton iterate x: the IPC doubling rule.
-  void after_iteration(const Eigen::VectorXd& x);
+  // After each accepted Newton iterate x: the IPC doubling rule. Returns true if kappa changed.
+  bool after_iteration(const Eigen::VectorXd& x);
 
   double kappa() const { return kappa_; }
   // Frame statistics at x (names as stored under /levels/<l>/stats/): contact_active_pairs,

@@ -121,7 +121,8 @@ FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v
     ns.step_tolerance = std::min(ns.step_tolerance, kFrictionToleranceFraction * sys_.contact.friction->eps_v());
   ns.max_iterations = settings_.max_newton_iterations;
   ns.projection = settings_.projection;
-  if (sys_.contact.has_barrier()) ns.after_iteration = [this](const Eigen::VectorXd& xi) { sys_.contact.after_iteration(xi); };
+  if (sys_.contact.has_barrier())
+    ns.after_iteration = [this](const Eigen::VectorXd& xi) { return sys_.contact.after_iteration(xi); };
 
   // Pinned vertices go to where their scripts put them at the end of the step; Newton then keeps
   // them there (fixed dofs) and solves for the rest.

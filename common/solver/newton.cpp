@@ -67,10 +67,7 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     }
     x = std::move(trial);
     energy = trial_energy;
-    if (s.after_iteration) {
-      s.after_iteration(x);
-      energy = ip.value(x);
-    }
+    if (s.after_iteration && s.after_iteration(x)) energy = ip.value(x);
   }
   r.stop_reason = "max_iterations";
   r.gradient_norms.push_back(ip.gradient(x).norm());

@@ -20,8 +20,9 @@ struct NewtonSettings {
   int max_line_search_cuts = 40;   // halvings before the line search gives up (no descent)
   HessianProjection projection = HessianProjection::Clamp;
   // Called with every accepted iterate; it may change the potential's parameters (IPC's adaptive
-  // barrier stiffness), after which the potential is evaluated afresh.
-  std::function<void(const Eigen::VectorXd&)> after_iteration;
+  // barrier stiffness) and returns true when it did, so that the potential is evaluated afresh
+  // only then (a full evaluation per iteration would be wasted while nothing changes).
+  std::function<bool(const Eigen::VectorXd&)> after_iteration;
 };
 
 struct NewtonReport {
