@@ -18,7 +18,16 @@ struct ExportArgs {
   int level = 0;
   std::string format = "obj";
   std::string out_dir;
+  bool rest = false;     // write every level's rest mesh as level_<l>.obj (instead of frames)
+  bool prolong = false;  // write the frames of `level` prolonged to the finest mesh (P^level)
 };
 int export_frames(const ExportArgs& args);
+
+struct HierarchyArgs {
+  std::string scene;
+  std::string out;    // frame file that receives the hierarchy (reused when its hash matches)
+  bool json = false;  // print one JSON object instead of text lines
+};
+int hierarchy(const HierarchyArgs& args);
 
 }  // namespace pd::cli

@@ -1,4 +1,4 @@
-// pd: the command-line client. Local commands (simulate, export) run in this process; the farm
+// pd: the command-line client. Local commands (simulate, export, hierarchy) run in this process; the farm
 // commands (submit, status, ...) come with the scheduler.
 #include <cstdio>
 #include <exception>
@@ -28,6 +28,17 @@ int main(int argc, char** argv) {
   export_cmd->add_option("--level", exp.level, "Resolution level (0 = coarsest)")->check(CLI::NonNegativeNumber);
   export_cmd->add_option("--format", exp.format, "Output format")->check(CLI::IsMember({"obj"}));
   export_cmd->add_option("--out,-o", exp.out_dir, "Output folder (created if missing)")->required();
+  export_cmd->add_flag("--rest", exp.rest, "Write every level's rest mesh as level_<l>.obj (no frames)");
+  export_cmd->add_flag("--prolong", exp.prolong,
+                       "Write the frames of --level prolonged to the finest mesh (needs a stored hierarchy, "
+                       "see pd hierarchy)");
+
+  pd::cli::HierarchyArgs hier;
+  auto* hierarchy = app.add_subcommand("hierarchy", "Build (or reuse) a scene's level hierarchy into a frame file");
+  hierarchy->add_option("scene", hier.scene, "Scene file (JSON, see docs/scene-format.md)")->required();
+  hierarchy->add_option("--out,-o", hier.out, "Frame file to create, or to reuse when its hierarchy matches")
+      ->required();
+  hierarchy->add_flag("--json", hier.json, "Print one JSON object instead of text lines");
 
   if (argc < 2) {  // bare `pd`: show what it can do, and fail (nothing was done)
     std::fputs(app.help().c_str(), stderr);
@@ -36,12 +47,16 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);  // prints usage errors to stderr with CLI11's exit code (non-zero)
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help
+    // A bad command line is bad input like any other: same message prefix and exit code.
+    std::fprintf(stderr, "pd: error: %s\nRun with --help for more information.\n", e.what());
+    return 2;
   }
 
   try {
     if (*simulate) return pd::cli::simulate(sim);
     if (*export_cmd) return pd::cli::export_frames(exp);
+    if (*hierarchy) return pd::cli::hierarchy(hier);
   } catch (const pd::InputError& e) {
     std::fprintf(stderr, "pd: error: %s\n", e.what());
     return 2;

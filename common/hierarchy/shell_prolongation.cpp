@@ -1,5 +1,6 @@
 #include "hierarchy/shell_prolongation.h"
 
+#include <cfloat>  // DBL_EPSILON
 #include <cmath>
 
 #include <Eigen/Geometry>  // cross products
@@ -138,6 +139,7 @@ ShellProlongation::ShellProlongation(const Positions& coarse_rest, const Faces& 
   struct RestFrame { Vec3 ebar, nbar, bbar2; };  // [ebar, bbar2 = nbar x ebar] spans the rest plane
   std::vector<RestFrame> frames(mc);
   bbar_inv_.assign(mc, Eigen::Matrix2d::Identity());
+  rest_frames_.assign(mc, Mat3::Identity());
   for (int f = 0; f < mc; ++f) {
     if (!used[f]) continue;
     used_faces_.push_back(f);
@@ -152,6 +154,7 @@ ShellProlongation::ShellProlongation(const Positions& coarse_rest, const Faces& 
     fr.ebar = e1.normalized();
     fr.nbar = c.normalized();
     fr.bbar2 = fr.nbar.cross(fr.ebar);
+    rest_frames_[f] << fr.ebar, fr.bbar2, fr.nbar;
     // Bbar = [[|e1|, e1.e2/|e1|], [0, |e1 x e2|/|e1|]] (the rest edges in the rest frame), inverted
     // in closed form (upper triangular).
     const double b00 = e1.norm(), b01 = e1.dot(e2) / b00, b11 = c.norm() / b00;
@@ -180,8 +183,18 @@ ShellProlongation::ShellProlongation(const Positions& coarse_rest, const Faces& 
     // Weights in [-1e-9, 0) are round-off of a point on an edge: clamp them so U stays a convex
     // combination (non-negative entries), then renormalise. The rest offset below is taken against
     // these final weights, so rest recovery stays exact.
-    loc.bary = loc.bary.cwiseMax(0.0);
-    loc.bary /= loc.bary.sum();
+    // Renormalise only when a weight was clamped or the sum is off 1 by more than 4 DBL_EPSILON.
+    // Why: dividing weights that are already normalised by their rounded sum is not the identity in
+    // floating point (that sum can be 1 +- an ulp; about 4% of the rows of a decimated hierarchy),
+    // so feeding locations() back would change those rows of U by an ulp and a stored hierarchy
+    // (common/store/hierarchy_store.cpp) could not rebuild bit-identical operators. Weights that
+    // came out of a division by their (rounded) sum have a rounded sum within about 2.5 eps of 1
+    // (one rounding per division and per addition; 2 eps the worst seen over 2M random triples), so
+    // 4 eps accepts every normalised triple with a margin, while dividing by a sum that close to 1
+    // would only move the weights by a few ulps. With this, re-feeding locations() is the identity.
+    const bool clamped = (loc.bary.array() < 0.0).any();
+    if (clamped) loc.bary = loc.bary.cwiseMax(0.0);
+    if (clamped || std::abs(loc.bary.sum() - 1.0) > 4.0 * DBL_EPSILON) loc.bary /= loc.bary.sum();
     Vec3 vbar = Vec3::Zero();
     for (int k = 0; k < 3; ++k) {
       const int v = coarse_faces(loc.face, k);
@@ -231,6 +244,20 @@ Positions ShellProlongation::offsets(const Positions& Xc) const {
     A.row(i) = (n[f] * gamma_[i] + R[f] * t_[i]).transpose();
   }
   return A;
+}
+
+std::vector<Mat3> ShellProlongation::vertex_rotations(const Positions& Xc) const {
+  check_coarse_size(Xc, "vertex_rotations");
+  std::vector<Mat3> Q(coarse_faces_.rows(), Mat3::Identity());
+  for (int f : used_faces_) {
+    const DeformedFace d = deform_face(Xc, coarse_faces_, f, bbar_inv_[f]);
+    Mat3 deformed;
+    deformed << d.polar.R, d.n;
+    Q[f] = deformed * rest_frames_[f].transpose();
+  }
+  std::vector<Mat3> out(num_fine());
+  for (int i = 0; i < num_fine(); ++i) out[i] = Q[locations_[i].face];
+  return out;
 }
 
 Positions ShellProlongation::apply(const Positions& Xc) const {

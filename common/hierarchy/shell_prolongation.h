@@ -86,9 +86,11 @@ Eigen::Matrix<double, 3, 2> polar_rotation_3x2(const Eigen::Matrix<double, 3, 2>
 class ShellProlongation {
  public:
   // coarse_rest: Vc (nc, 3) m; coarse_faces: Fc (mc, 3) 0-based; fine_rest: Xf (nf, 3) m;
-  // locations: one per fine vertex (size nf). Barycentric weights in [-1e-9, 0) are set to 0 and the
-  // weights are divided by their sum (which must be within 1e-9 of 1), so every row of U is a convex
-  // combination summing to 1; zero weights are not stored. Throws std::invalid_argument (naming the fine vertex or coarse face) for a size mismatch,
+  // locations: one per fine vertex (size nf). Barycentric weights in [-1e-9, 0) are set to 0, and
+  // the weights are divided by their sum (which must be within 1e-9 of 1) when a weight was clamped
+  // or the sum is off 1 by more than 4 eps, so every row of U is a convex combination summing to 1
+  // and locations() given back to the constructor rebuild the same operator bit for bit; zero
+  // weights are not stored. Throws std::invalid_argument (naming the fine vertex or coarse face) for a size mismatch,
   // a face index out of range, a face vertex index out of range, non-finite or out-of-range weights
   // (< -1e-9, or a sum off 1 by more than 1e-9), or a containing rest face with zero area.
   ShellProlongation(const Positions& coarse_rest, const Faces& coarse_faces, const Positions& fine_rest,
@@ -115,6 +117,11 @@ class ShellProlongation {
   Positions apply_linear(const Positions& Xc) const;
   // The offsets a(Xc), (nf, 3) m. Throws DegenerateProlongationTriangle.
   Positions offsets(const Positions& Xc) const;
+  // Per fine vertex i, the rotation Q_i = [R_f, n_f] [ebar, nbar x ebar, nbar]^T of its coarse face f
+  // at Xc: it carries the rest frame to the deformed one, so a_i(Xc) = Q_i d_i with d_i the rest
+  // offset (det Q_i = +1; identity at the rest shape). Safe upsampling uses it to carry rest-space
+  // displacements near vertex i into the deformed shape. Throws DegenerateProlongationTriangle.
+  std::vector<Mat3> vertex_rotations(const Positions& Xc) const;
   // Frozen-offset prolongation U Xc + frozen_offsets (frozen_offsets (nf, 3) m, e.g. offsets(Xc0)).
   Positions apply_frozen(const Positions& Xc, const Positions& frozen_offsets) const;
 
@@ -136,6 +143,7 @@ class ShellProlongation {
   std::vector<Eigen::Vector2d> t_;
   std::vector<int> used_faces_;                 // coarse faces containing at least one fine vertex
   std::vector<Eigen::Matrix2d> bbar_inv_;       // per coarse face (identity for unused faces), 1/m
+  std::vector<Mat3> rest_frames_;               // per coarse face: columns ebar, nbar x ebar, nbar
   Eigen::SparseMatrix<double> U_;
   Eigen::SparseMatrix<double> U_stacked_;
 };

@@ -89,6 +89,19 @@ struct Ground {
   double friction = 0.0;        // Coulomb coefficient against every object
 };
 
+// An object's level hierarchy settings (docs/scene-format.md, "hierarchy"; hierarchy/scene_hierarchy.h).
+struct ObjectHierarchyConfig {
+  // Vertex counts of the coarser levels, next-to-finest first (level L-1, ..., level 0): exactly
+  // Scene::hierarchy.levels - 1 entries, each >= 3, non-increasing, <= the finest vertex count. A
+  // count equal to the next finer level's keeps that level's mesh unchanged (e.g. an 8-vertex box
+  // obstacle). Empty: level l gets round(n_L / ratio^(L-l)) vertices (Scene::hierarchy.ratio).
+  std::vector<int> vertex_counts;
+  // Keep every boundary vertex on every level (DecimationSettings::keep_boundary). Absent: false,
+  // since a sheet's boundary grows like sqrt(n) and would block a 4x ratio; without it only straight
+  // boundary stretches coarsen, so corners and curved boundaries stay exact.
+  std::optional<bool> keep_boundary;
+};
+
 struct SceneObject {
   std::string name;
   TriMesh rest;                        // rest shape after the object's transform, m
@@ -107,6 +120,7 @@ struct SceneObject {
   bool obstacle = false;
   std::optional<PinScript> motion;     // obstacles only
   std::optional<StrainLimit> strain_limit;
+  ObjectHierarchyConfig hierarchy;     // coarser levels of this object (every object has them)
 };
 
 // Air moving at air_velocity * (1 + gust_amplitude * sin(2 pi gust_frequency t)), drag on each
@@ -126,6 +140,12 @@ struct SolverSettings {
   HessianProjection projection = HessianProjection::Clamp;
 };
 
+// The scene-wide level hierarchy (docs/scene-format.md, "hierarchy").
+struct HierarchyConfig {
+  int levels = 4;       // total number of levels INCLUDING the finest (1: no coarser level)
+  double ratio = 4.0;   // vertex-count ratio between neighbouring levels (> 1) for objects without vertex_counts
+};
+
 struct Scene {
   std::string source_path;   // the file it was read from (for messages)
   std::string json_text;     // the scene file's text, stored in the frame file
@@ -137,6 +157,7 @@ struct Scene {
   std::optional<ContactConfig> contact;  // absent: objects pass through each other (no contact cost)
   std::optional<Ground> ground;          // requires contact
   SolverSettings solver;
+  HierarchyConfig hierarchy;
   std::vector<SceneObject> objects;
 };
 

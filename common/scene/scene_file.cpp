@@ -14,6 +14,7 @@
 #include "geometry/topology.h"
 #include "physics/pressure.h"
 #include "scene/scene_contact.h"
+#include "scene/scene_hierarchy_config.h"
 #include "scene/scene_json.h"
 #include "util/input_error.h"
 
@@ -380,7 +381,8 @@ bool valid_name_char(char c) { return static_cast<unsigned char>(c) >= 0x20 && c
 
 SceneObject read_object(const JsonNode& node, int index, const std::string& base_dir, bool scene_has_wind) {
   node.expect_keys({"name", "mesh", "transform", "initial_positions", "initial_velocity", "material", "pins",
-                    "pressure", "wind", "obstacle", "motion", "self_contact", "ground_contact", "strain_limit"});
+                    "pressure", "wind", "obstacle", "motion", "self_contact", "ground_contact", "strain_limit",
+                    "hierarchy"});
   SceneObject obj;
   obj.name = "object_" + std::to_string(index);
   if (auto name = node.optional("name")) {
@@ -495,7 +497,7 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
   const JsonNode root(doc, "", file);
   check_format_version(root);
   root.expect_keys({"format_version", "name", "description", "time_step", "frames", "gravity", "solver", "wind",
-                    "contact", "ground", "objects"});
+                    "contact", "ground", "hierarchy", "objects"});
 
   Scene scene;
   scene.source_path = path_for_messages;
@@ -527,6 +529,7 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
     scene.objects.push_back(std::move(obj));
   }
   read_contact_sections(root, list, scene);
+  scene_json::read_hierarchy_sections(root, list, scene);
   return scene;
 }
 

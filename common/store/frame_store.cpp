@@ -1,9 +1,7 @@
 #include "store/frame_store.h"
 
-#include <hdf5.h>
-#include <unistd.h>
-
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -11,164 +9,56 @@
 #include <utility>
 
 #include "geometry/obj_io.h"
+#include "store/h5_util.h"
 
 namespace pd {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-using Shape = std::vector<hsize_t>;
+using h5::File;
+using h5::Handle;
+using h5::level_name;
+using h5::quiet_hdf5;
+using h5::Shape;
+using h5::vlen_string_type;
 
-// Owns one hid_t and closes it with the matching H5?close function.
-class Handle {
- public:
-  using Closer = herr_t (*)(hid_t);
-  Handle() = default;
-  Handle(hid_t id, Closer closer) : id_(id), closer_(closer) {}
-  Handle(Handle&& o) noexcept : id_(std::exchange(o.id_, H5I_INVALID_HID)), closer_(o.closer_) {}
-  Handle& operator=(Handle&& o) noexcept {
-    if (this != &o) {
-      reset();
-      id_ = std::exchange(o.id_, H5I_INVALID_HID);
-      closer_ = o.closer_;
-    }
-    return *this;
-  }
-  ~Handle() { reset(); }
-  hid_t get() const { return id_; }
-  bool valid() const { return id_ >= 0; }
-  herr_t reset() {  // closes the id now; returns the close function's status
-    herr_t status = id_ >= 0 && closer_ ? closer_(id_) : 0;
-    id_ = H5I_INVALID_HID;
-    return status;
-  }
+void check_stat_name(const File& f, const std::string& name, int level) {
+  if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "center_of_mass")
+    f.fail(level_name("/levels", level, "stats"), "invalid statistic name '" + name + "'");
+}
 
- private:
-  hid_t id_ = H5I_INVALID_HID;
-  Closer closer_ = nullptr;
-};
-
-// Turns off HDF5's printing of its error stack; failures are reported as InputError instead.
-void quiet_hdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
-
-// The innermost message of the current HDF5 error stack ("" when empty).
-std::string hdf5_detail() {
-  std::string detail;
-  auto take_first = [](unsigned n, const H5E_error2_t* err, void* out) -> herr_t {
-    if (n == 0 && err->desc != nullptr) *static_cast<std::string*>(out) = err->desc;
-    return 0;
+// add_level on a file whose /hierarchy/<l> was written by write_hierarchy: the stored rest mesh,
+// offsets and names must equal the given ones bit for bit, else InputError naming the dataset.
+void check_stored_level(const File& f, const std::string& where, const Positions& rest, const Faces& faces,
+                        const std::vector<int>& object_offsets, const std::vector<std::string>& object_names) {
+  auto differs = [&](const std::string& name, const std::string& what) {
+    f.fail(name, "stored " + what + " differs from the one given to add_level (the level does not belong to "
+                 "the stored hierarchy)");
   };
-  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, take_first, &detail);
-  return detail;
+  auto rows_of = [&](const std::string& name, H5T_class_t cls, long long cols) {
+    Shape d;
+    f.open(name, cls, cols > 0 ? std::vector<long long>{-1, cols} : std::vector<long long>{-1}, &d);
+    return static_cast<long long>(d[0]);
+  };
+  const std::string rp = where + "/rest_positions", fp = where + "/faces", op = where + "/object_offsets",
+                    np = where + "/object_names";
+  if (rows_of(rp, H5T_FLOAT, 3) != rest.rows()) differs(rp, "vertex count");
+  Positions V(rest.rows(), 3);
+  f.read_into(rp, H5T_NATIVE_DOUBLE, H5T_FLOAT, {V.rows(), 3}, V.data());
+  if (std::memcmp(V.data(), rest.data(), sizeof(double) * static_cast<size_t>(V.size())) != 0)
+    differs(rp, "rest positions");
+  if (rows_of(fp, H5T_INTEGER, 3) != faces.rows()) differs(fp, "face count");
+  Faces F(faces.rows(), 3);
+  f.read_into(fp, H5T_NATIVE_INT, H5T_INTEGER, {F.rows(), 3}, F.data());
+  if (F != faces) differs(fp, "faces");
+  const long long k1 = static_cast<long long>(object_offsets.size());
+  if (rows_of(op, H5T_INTEGER, 0) != k1) differs(op, "object count");
+  std::vector<int> off(object_offsets.size());
+  f.read_into(op, H5T_NATIVE_INT, H5T_INTEGER, {k1}, off.data());
+  if (off != object_offsets) differs(op, "object offsets");
+  Handle d = f.open(np, H5T_STRING, {k1 - 1});
+  if (f.read_strings(d.get(), false, np, static_cast<hsize_t>(k1 - 1)) != object_names) differs(np, "object names");
 }
-
-Handle simple_space(const Shape& dims) {
-  return Handle(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
-}
-Handle vlen_string_type() {
-  Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
-  H5Tset_size(type.get(), H5T_VARIABLE);
-  H5Tset_cset(type.get(), H5T_CSET_UTF8);
-  return type;
-}
-std::string level_name(const char* root, int level, const char* leaf = nullptr) {
-  std::string name = std::string(root) + "/" + std::to_string(level);
-  return leaf ? name + "/" + leaf : name;
-}
-std::string join(const std::vector<long long>& v) {  // "(5, *, 3)"; -1 prints as *
-  std::string s;
-  for (long long x : v) s += (s.empty() ? "" : ", ") + (x < 0 ? std::string("*") : std::to_string(x));
-  return "(" + s + ")";
-}
-
-// An HDF5 file and its path; every failure becomes InputError "<path>: <object>: <what>".
-struct File {
-  std::string path;
-  Handle id;
-
-  [[noreturn]] void fail(const std::string& object, const std::string& what) const {
-    throw InputError(path + ": " + (object.empty() ? "" : object + ": ") + what);
-  }
-  [[noreturn]] void fail_h5(const std::string& object, const std::string& what) const {
-    std::string detail = hdf5_detail();
-    fail(object, detail.empty() ? what : what + " (HDF5: " + detail + ")");
-  }
-  void check(herr_t status, const std::string& object, const char* what) const {
-    if (status < 0) fail_h5(object, what);
-  }
-  Handle checked(hid_t h, Handle::Closer closer, const std::string& object, const char* what) const {
-    if (h < 0) fail_h5(object, what);
-    return Handle(h, closer);
-  }
-
-  void make_group(const std::string& name) const {
-    checked(H5Gcreate2(id.get(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, name,
-            "cannot create group");
-  }
-  // Creates dataset `name` with an optional fill value and, if chunk is non-empty, chunked layout.
-  Handle create(const std::string& name, hid_t file_type, const Shape& dims, const Shape& chunk = {},
-                hid_t fill_type = H5T_NATIVE_DOUBLE, const void* fill = nullptr) const {
-    Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
-    if (!chunk.empty())
-      check(H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()), name, "bad chunk shape");
-    if (fill) check(H5Pset_fill_value(dcpl.get(), fill_type, fill), name, "bad fill value");
-    Handle space = simple_space(dims);
-    return checked(H5Dcreate2(id.get(), name.c_str(), file_type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
-                   H5Dclose, name, "cannot create dataset");
-  }
-  // Reads (write = false) or writes the block [start, start + count) of dataset `dset` called `name`.
-  void io(bool write, hid_t dset, const std::string& name, hid_t mem_type, const Shape& start, const Shape& count,
-          void* data) const {
-    for (hsize_t c : count)
-      if (c == 0) return;  // nothing to transfer
-    Handle file_space = checked(H5Dget_space(dset), H5Sclose, name, "cannot get dataspace");
-    check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr),
-          name, "block outside the dataset");
-    Handle mem_space = simple_space(count);
-    check(write ? H5Dwrite(dset, mem_type, mem_space.get(), file_space.get(), H5P_DEFAULT, data)
-                : H5Dread(dset, mem_type, mem_space.get(), file_space.get(), H5P_DEFAULT, data),
-          name, write ? "write failed" : "read failed");
-  }
-  void write_whole(const std::string& name, hid_t file_type, hid_t mem_type, const Shape& dims,
-                   const void* data) const {
-    Handle d = create(name, file_type, dims);
-    io(true, d.get(), name, mem_type, Shape(dims.size(), 0), dims, const_cast<void*>(data));
-  }
-  // Opens dataset `name`, checks its type class and shape (-1 matches any extent); dims gets the shape.
-  Handle open(const std::string& name, H5T_class_t cls, const std::vector<long long>& shape,
-              Shape* dims = nullptr) const {
-    Handle d = checked(H5Dopen2(id.get(), name.c_str(), H5P_DEFAULT), H5Dclose, name, "missing dataset");
-    Handle type(H5Dget_type(d.get()), H5Tclose);
-    if (H5Tget_class(type.get()) != cls) fail(name, "dataset has the wrong element type");
-    Handle space(H5Dget_space(d.get()), H5Sclose);
-    int rank = H5Sget_simple_extent_ndims(space.get());
-    Shape got(rank > 0 ? rank : 0);
-    if (rank > 0) H5Sget_simple_extent_dims(space.get(), got.data(), nullptr);
-    std::vector<long long> got_ll(got.begin(), got.end());
-    bool ok = got.size() == shape.size();
-    for (size_t i = 0; ok && i < got.size(); ++i) ok = shape[i] < 0 || got_ll[i] == shape[i];
-    if (!ok) fail(name, "shape " + join(got_ll) + ", expected " + join(shape));
-    if (dims) *dims = got;
-    return d;
-  }
-  // Reads all of dataset `name`, whose shape must be `shape`, into out.
-  void read_into(const std::string& name, hid_t mem_type, H5T_class_t cls, const std::vector<long long>& shape,
-                 void* out) const {
-    Shape dims;
-    Handle d = open(name, cls, shape, &dims);
-    io(false, d.get(), name, mem_type, Shape(dims.size(), 0), dims, out);
-  }
-  // H5Fflush, then fsync, so that data flushed before a later write also reaches the disk first.
-  void flush() const {
-    check(H5Fflush(id.get(), H5F_SCOPE_LOCAL), "", "flush failed");
-    void* fd = nullptr;
-    check(H5Fget_vfd_handle(id.get(), H5P_DEFAULT, &fd), "", "cannot get the file descriptor");
-    if (fsync(*static_cast<int*>(fd)) != 0) fail("", "fsync failed");
-  }
-  void check_stat_name(const std::string& name, int level) const {
-    if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "center_of_mass")
-      fail(level_name("/levels", level, "stats"), "invalid statistic name '" + name + "'");
-  }
-};
 
 }  // namespace
 
@@ -239,15 +129,22 @@ void FrameWriter::add_level(int level, const Positions& rest, const Faces& faces
 
   const hsize_t un = static_cast<hsize_t>(n), uk = static_cast<hsize_t>(k);
   const hsize_t frames = static_cast<hsize_t>(impl_->num_frames);
-  for (const std::string& g : {where, data, data + "/stats"}) f.make_group(g);
-  f.write_whole(where + "/rest_positions", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {un, 3}, rest.data());
-  f.write_whole(where + "/faces", H5T_STD_I32LE, H5T_NATIVE_INT, {static_cast<hsize_t>(faces.rows()), 3},
-                faces.data());
-  f.write_whole(where + "/object_offsets", H5T_STD_I32LE, H5T_NATIVE_INT, {uk + 1}, object_offsets.data());
-  std::vector<const char*> names;
-  for (const std::string& s : object_names) names.push_back(s.c_str());
-  Handle str = vlen_string_type();
-  f.write_whole(where + "/object_names", str.get(), str.get(), {uk}, names.data());
+  if (f.exists(where + "/rest_positions")) {
+    // Written before by write_hierarchy (store/hierarchy_store.h): the level must be that one.
+    check_stored_level(f, where, rest, faces, object_offsets, object_names);
+    for (const std::string& g : {data, data + "/stats"}) f.make_group(g);
+  } else {
+    if (!f.exists(where)) f.make_group(where);
+    for (const std::string& g : {data, data + "/stats"}) f.make_group(g);
+    f.write_whole(where + "/rest_positions", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {un, 3}, rest.data());
+    f.write_whole(where + "/faces", H5T_STD_I32LE, H5T_NATIVE_INT, {static_cast<hsize_t>(faces.rows()), 3},
+                  faces.data());
+    f.write_whole(where + "/object_offsets", H5T_STD_I32LE, H5T_NATIVE_INT, {uk + 1}, object_offsets.data());
+    std::vector<const char*> names;
+    for (const std::string& s : object_names) names.push_back(s.c_str());
+    Handle str = vlen_string_type();
+    f.write_whole(where + "/object_names", str.get(), str.get(), {uk}, names.data());
+  }
 
   Impl::Level lv;
   lv.num_vertices = n;
@@ -280,7 +177,7 @@ void FrameWriter::write_frame(int level, int t, const Positions& x, const FrameS
                                                std::to_string(lv.num_objects));
   std::map<std::string, double> scalars;
   for (const auto& [name, value] : stats.scalars) {
-    f.check_stat_name(name, level);
+    check_stat_name(f, name, level);
     if (!scalars.emplace(name, value).second) f.fail(data + "/stats/" + name, "statistic given twice");
   }
 
@@ -358,23 +255,6 @@ struct FrameReader::Impl {
     file.io(false, d.get(), name, H5T_NATIVE_DOUBLE, {static_cast<hsize_t>(t), 0, 0},
             {1, static_cast<hsize_t>(rows), 3}, out);
   }
-  // Reads `count` variable-length strings from an attribute (attr = true) or a dataset.
-  std::vector<std::string> read_strings(hid_t obj, bool attr, const std::string& name, hsize_t count) const {
-    Handle type(attr ? H5Aget_type(obj) : H5Dget_type(obj), H5Tclose);
-    if (H5Tget_class(type.get()) != H5T_STRING || H5Tis_variable_str(type.get()) <= 0)
-      file.fail(name, "expected variable-length strings");
-    Handle mem = vlen_string_type();
-    std::vector<char*> raw(count, nullptr);
-    file.check(attr ? H5Aread(obj, mem.get(), raw.data())
-                    : H5Dread(obj, mem.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, raw.data()),
-               name, "read failed");
-    std::vector<std::string> out;
-    for (char* s : raw) {
-      out.emplace_back(s ? s : "");
-      H5free_memory(s);
-    }
-    return out;
-  }
 };
 
 FrameReader::FrameReader(const std::string& path) : impl_(std::make_unique<Impl>()) {
@@ -434,7 +314,7 @@ int FrameReader::num_objects(int level) const { return impl_->level(level).num_o
 std::string FrameReader::scene_json() const {
   const File& f = impl_->file;
   Handle a = f.checked(H5Aopen(f.id.get(), "scene", H5P_DEFAULT), H5Aclose, "/@scene", "missing attribute");
-  return impl_->read_strings(a.get(), true, "/@scene", 1).front();
+  return impl_->file.read_strings(a.get(), true, "/@scene", 1).front();
 }
 
 Positions FrameReader::rest_positions(int level) const {
@@ -469,7 +349,7 @@ std::vector<std::string> FrameReader::object_names(int level) const {
   const std::string name = level_name("/hierarchy", level, "object_names");
   const int k = impl_->level(level).num_objects;
   Handle d = impl_->file.open(name, H5T_STRING, {k});
-  return impl_->read_strings(d.get(), false, name, static_cast<hsize_t>(k));
+  return impl_->file.read_strings(d.get(), false, name, static_cast<hsize_t>(k));
 }
 
 std::vector<uint8_t> FrameReader::done(int level) const {
@@ -506,7 +386,7 @@ std::vector<std::string> FrameReader::stat_names(int level) const {
 std::vector<double> FrameReader::stat(int level, const std::string& name) const {
   impl_->level(level);
   const File& f = impl_->file;
-  f.check_stat_name(name, level);
+  check_stat_name(f, name, level);
   const std::string ds = level_name("/levels", level, "stats/") + name;
   if (H5Lexists(f.id.get(), ds.c_str(), H5P_DEFAULT) <= 0) f.fail(ds, "no such statistic");
   std::vector<double> out(impl_->num_frames);

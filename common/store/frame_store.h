@@ -50,7 +50,9 @@ class FrameWriter {
   ~FrameWriter();
 
   // Adds level `level`, which must equal num_levels() (levels come in order 0, 1, ...): writes
-  // /hierarchy/<level>/{rest_positions, faces, object_offsets, object_names} and creates
+  // /hierarchy/<level>/{rest_positions, faces, object_offsets, object_names} (or, when the file
+  // already has them because write_hierarchy stored the hierarchy, checks that they equal the given
+  // ones bit for bit and throws InputError naming the dataset that differs) and creates
   // /levels/<level>/{positions, done, stats/center_of_mass}. object_offsets has num_objects + 1
   // entries, starts at 0, does not decrease and ends at rest.rows(); object k owns the vertices
   // [offsets[k], offsets[k+1]). object_names has num_objects entries. Requires rest.rows() > 0,

@@ -8,8 +8,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
 
+#include "geometry/obj_io.h"
 #include "store/frame_store.h"
+#include "store/hierarchy_store.h"
 #include "support/test_paths.h"
 
 namespace pd {
@@ -166,6 +171,124 @@ TEST(PdCli, NegativeDhatNamesTheKey) {
   const CliResult r = run_pd("simulate " + write_file(dir, "s.json", scene) + " --out " + dir + "/o.h5");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("s.json: contact.dhat"), std::string::npos) << r.output;
+}
+
+// ---- pd hierarchy and pd export --rest / --prolong --------------------------------------------------
+
+// A pinned 12 x 12 sheet above a small icosphere obstacle, 3 levels.
+std::string hierarchy_scene() {
+  return R"({"format_version": 1, "name": "hier", "time_step": 0.01, "frames": 3,
+    "hierarchy": {"levels": 3}, "contact": {"dhat": 1e-3},
+    "objects": [
+      {"name": "sheet", "mesh": {"type": "rectangle", "size": [1.0, 1.0], "cells": [12, 12]},
+       "material": {"preset": "cotton"}, "pins": [{"indices": [0, 12]}]},
+      {"name": "ball", "mesh": {"type": "icosphere", "radius": 0.2, "subdivisions": 2}, "obstacle": true,
+       "transform": {"translation": [0, 0, -1]}}]})";
+}
+
+int obj_vertex_count(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line)) n += line.rfind("v ", 0) == 0;
+  return n;
+}
+
+int count_objs(const std::string& dir) {
+  int objs = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) objs += e.path().extension() == ".obj";
+  return objs;
+}
+
+TEST(PdCli, HierarchyPrintsEachLevelAndExportRestWritesItsMeshes) {
+  const std::string dir = test::scratch_dir("cli_hierarchy");
+  const std::string scene = write_file(dir, "s.json", hierarchy_scene());
+  const CliResult r = run_pd("hierarchy " + scene + " --out " + dir + "/h.h5");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* line : {"level 0: ", "level 1: ", "level 2: ", "rest prolongation error"})
+    EXPECT_NE(r.output.find(line), std::string::npos) << line << " not in: " << r.output;
+  EXPECT_EQ(r.output.find("level 3: "), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("reused"), std::string::npos) << r.output;
+
+  const CliResult exp = run_pd("export " + dir + "/h.h5 --rest --out " + dir + "/rest");
+  ASSERT_EQ(exp.exit_code, 0) << exp.output;
+  EXPECT_EQ(count_objs(dir + "/rest"), 3);
+  const FrameReader reader(dir + "/h.h5");
+  ASSERT_EQ(reader.num_levels(), 3);
+  for (int l = 0; l < 3; ++l) {
+    const int n = reader.num_vertices(l);
+    EXPECT_EQ(obj_vertex_count(dir + "/rest/level_" + std::to_string(l) + ".obj"), n) << l;
+    EXPECT_NE(r.output.find("level " + std::to_string(l) + ": " + std::to_string(n) + " vertices"), std::string::npos)
+        << r.output;
+  }
+
+  const CliResult again = run_pd("hierarchy " + scene + " --out " + dir + "/h.h5");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("reused"), std::string::npos) << again.output;
+  const CliResult json = run_pd("hierarchy " + scene + " --out " + dir + "/h.h5 --json");
+  ASSERT_EQ(json.exit_code, 0) << json.output;
+  EXPECT_NE(json.output.find("\"reused\": true"), std::string::npos) << json.output;
+  EXPECT_NE(json.output.find("\"level\": 2"), std::string::npos) << json.output;
+}
+
+TEST(PdCli, ExportProlongWritesCoarseFramesOnTheFinestMesh) {
+  const std::string dir = test::scratch_dir("cli_prolong");
+  const std::string scene = write_file(dir, "s.json", hierarchy_scene());
+  ASSERT_EQ(run_pd("hierarchy " + scene + " --out " + dir + "/h.h5").exit_code, 0);
+  const std::optional<SceneHierarchy> h = read_hierarchy(dir + "/h.h5");
+  ASSERT_TRUE(h.has_value());
+  // A job file with two stored frames of the coarsest level (rest shape, then shifted by 1 cm).
+  const std::string job = dir + "/job.h5";
+  {
+    const std::vector<std::string> names{"sheet", "ball"};
+    FrameWriter w = FrameWriter::create(job, hierarchy_scene(), 3);
+    write_hierarchy(job, *h, names);
+    add_hierarchy_levels(w, *h, names);
+    w.write_frame(0, 0, h->levels[0].rest.V, FrameStats{});
+    w.write_frame(0, 2, h->levels[0].rest.V.array() + 0.01, FrameStats{});
+    w.close();
+  }
+  const CliResult r = run_pd("export " + job + " --prolong --level 0 --out " + dir + "/fine");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(count_objs(dir + "/fine"), 2);
+  const int finest = static_cast<int>(h->levels.back().rest.V.rows());
+  EXPECT_EQ(obj_vertex_count(dir + "/fine/frame_00000.obj"), finest);
+  EXPECT_EQ(obj_vertex_count(dir + "/fine/frame_00002.obj"), finest);
+
+  // The level-0 frame at rest prolongs to the finest rest shape (PSQ's rest-shape recovery).
+  const TriMesh m = read_obj(dir + "/fine/frame_00000.obj");
+  EXPECT_LT((m.V - h->levels.back().rest.V).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(m.F, h->levels.back().rest.F);
+}
+
+TEST(PdCli, ExportProlongWithoutHierarchySaysToRunPdHierarchy) {
+  const std::string dir = test::scratch_dir("cli_prolong_none");
+  const std::string scene = write_file(dir, "s.json", small_scene());
+  ASSERT_EQ(run_pd("simulate " + scene + " --quiet --out " + dir + "/out.h5").exit_code, 0);
+  const CliResult r = run_pd("export " + dir + "/out.h5 --prolong --level 0 --out " + dir + "/fine");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("pd: error: " + dir + "/out.h5"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("pd hierarchy"), std::string::npos) << r.output;
+}
+
+TEST(PdCli, HierarchyBadInputExitsWithCode2) {
+  const std::string dir = test::scratch_dir("cli_hierarchy_bad");
+  const std::string scene = write_file(dir, "s.json", hierarchy_scene());
+  const CliResult unknown = run_pd("hierarchy " + scene + " --out " + dir + "/h.h5 --levels 3");
+  EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
+  EXPECT_NE(unknown.output.find("--levels"), std::string::npos) << unknown.output;
+  const CliResult no_out = run_pd("hierarchy " + scene);
+  EXPECT_EQ(no_out.exit_code, 2) << no_out.output;
+  EXPECT_NE(no_out.output.find("--out"), std::string::npos) << no_out.output;
+  const CliResult missing = run_pd("hierarchy " + dir + "/nope.json --out " + dir + "/h.h5");
+  EXPECT_EQ(missing.exit_code, 2) << missing.output;
+  EXPECT_NE(missing.output.find("pd: error: " + dir + "/nope.json"), std::string::npos) << missing.output;
+  const CliResult unwritable = run_pd("hierarchy " + scene + " --out " + dir + "/no/such/dir/h.h5");
+  EXPECT_EQ(unwritable.exit_code, 2) << unwritable.output;
+  EXPECT_NE(unwritable.output.find("pd: error: " + dir + "/no/such/dir/h.h5"), std::string::npos) << unwritable.output;
+  const CliResult bad_flag = run_pd("export " + dir + "/h.h5 --prolongate --out " + dir + "/x");
+  EXPECT_EQ(bad_flag.exit_code, 2) << bad_flag.output;
+  EXPECT_NE(bad_flag.output.find("--prolongate"), std::string::npos) << bad_flag.output;
 }
 
 }  // namespace

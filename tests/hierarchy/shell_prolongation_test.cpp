@@ -15,11 +15,14 @@
 // against the coarse edges (~0.2-0.5 m).
 #include <algorithm>
 #include <array>
+#include <cfloat>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <map>
 #include <random>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -29,6 +32,8 @@
 
 #include "geometry/shapes.h"
 #include "geometry/topology.h"
+#include "hierarchy/decimation.h"
+#include "hierarchy/intrinsic_location.h"
 #include "hierarchy/shell_prolongation.h"
 #include "support/finite_difference.h"
 
@@ -514,6 +519,83 @@ TEST(ShellProlongation, DegenerateDeformedCoarseFaceThrowsNamingTheFace) {
   EXPECT_NO_THROW(P.apply_linear(X));  // U x needs no frame
   X(0, 0) = std::nan("");
   EXPECT_THROW(P.apply(X), DegenerateProlongationTriangle);
+}
+
+// Rebuilding an operator from another's locations() must give the same operator bit for bit (the
+// hierarchy store, common/store/hierarchy_store.cpp, relies on it): the constructor leaves weights
+// that are already normalised as they are. Checked on the per-level and direct operators of a
+// decimated sphere and a decimated sheet (intrinsic locations, whose weights come out of a division
+// by their sum) and on the subdivided flat sheet; the decimated ones must contain rows that the old
+// always-renormalise constructor would have changed, or the test would not test anything.
+TEST(ShellProlongation, RebuildingFromLocationsIsBitIdentical) {
+  auto bits_equal = [](double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; };
+  auto same_sparse = [&](const Eigen::SparseMatrix<double>& A, const Eigen::SparseMatrix<double>& B) {
+    if (A.rows() != B.rows() || A.cols() != B.cols() || A.nonZeros() != B.nonZeros()) return false;
+    for (int j = 0; j < A.outerSize(); ++j) {
+      Eigen::SparseMatrix<double>::InnerIterator a(A, j), b(B, j);
+      for (; a && b; ++a, ++b)
+        if (a.row() != b.row() || !bits_equal(a.value(), b.value())) return false;
+      if (a || b) return false;
+    }
+    return true;
+  };
+  int renormalise_changes = 0, rows = 0;
+  auto check = [&](const char* what, const TriMesh& coarse, const Positions& fine_rest,
+                   const std::vector<SurfaceLocation>& locs) {
+    const ShellProlongation P(coarse.V, coarse.F, fine_rest, locs);
+    const ShellProlongation Q(coarse.V, coarse.F, fine_rest, P.locations());
+    EXPECT_TRUE(same_sparse(P.U(), Q.U())) << what << ": U";
+    EXPECT_TRUE(same_sparse(P.U_stacked(), Q.U_stacked())) << what << ": U_stacked";
+    int loc_diff = 0, gamma_diff = 0, t_diff = 0;
+    for (int i = 0; i < P.num_fine(); ++i) {
+      const SurfaceLocation &a = P.locations()[i], &b = Q.locations()[i];
+      loc_diff += a.face != b.face || !bits_equal(a.bary[0], b.bary[0]) || !bits_equal(a.bary[1], b.bary[1]) ||
+                  !bits_equal(a.bary[2], b.bary[2]);
+      gamma_diff += !bits_equal(P.normal_offsets()[i], Q.normal_offsets()[i]);
+      t_diff += !bits_equal(P.tangent_offsets()[i][0], Q.tangent_offsets()[i][0]) ||
+                !bits_equal(P.tangent_offsets()[i][1], Q.tangent_offsets()[i][1]);
+      // What the old constructor (always divide by the sum) would have done to these weights.
+      const Eigen::Vector3d w = a.bary.cwiseMax(0.0) / a.bary.cwiseMax(0.0).sum();
+      renormalise_changes += w != a.bary;
+      ++rows;
+    }
+    EXPECT_EQ(loc_diff, 0) << what << ": locations";
+    EXPECT_EQ(gamma_diff, 0) << what << ": normal offsets";
+    EXPECT_EQ(t_diff, 0) << what << ": tangent offsets";
+  };
+  const Hierarchy2 sheet = flat_sheet();
+  check("subdivided flat sheet", sheet.coarse, sheet.fine.V, sheet.locations);
+
+  const std::pair<const char*, TriMesh> meshes[] = {{"decimated sphere", make_icosphere(1.0, 3)},
+                                                    {"decimated sheet", make_rectangle(1.0, 0.8, 24, 20)}};
+  for (const auto& [name, finest] : meshes) {
+    LevelSettings settings;
+    settings.coarser_levels = 3;
+    settings.decimation.keep_boundary = false;  // as scenes decimate (else the sheet's boundary blocks 4x)
+    const std::vector<Level> levels = build_levels(finest, settings);
+    const int L = static_cast<int>(levels.size()) - 1;
+    for (int l = 0; l < L; ++l) {
+      const std::string what = std::string(name) + " level " + std::to_string(l);
+      check((what + " to next").c_str(), levels[l].mesh, levels[l + 1].mesh.V,
+            locate_through_collapses(levels[l + 1].mesh, levels[l].collapses, levels[l].mesh,
+                                     levels[l].coarse_to_fine));
+      check((what + " to finest").c_str(), levels[l].mesh, levels[L].mesh.V, locate_finest_on_level(levels, l));
+    }
+  }
+  std::printf("%d of %d operator rows would change under the old always-renormalise rule\n", renormalise_changes,
+              rows);
+  EXPECT_GT(renormalise_changes, 0) << "no row exercises the re-normalisation round-off";
+
+  // Weights that need it are still normalised: a clamped weight, or a sum off 1 by more than 4 eps.
+  const ShellProlongation R(sheet.coarse.V, sheet.coarse.F, sheet.fine.V, [&] {
+    std::vector<SurfaceLocation> locs = sheet.locations;
+    locs[0].bary = Eigen::Vector3d(0.5 + 5e-10, 0.5, -5e-10);
+    locs[1].bary = Eigen::Vector3d(0.25, 0.25, 0.5) * (1.0 + 1e-10);
+    return locs;
+  }());
+  EXPECT_EQ(R.locations()[0].bary[2], 0.0);
+  EXPECT_NEAR(R.locations()[0].bary.sum(), 1.0, 4 * DBL_EPSILON);
+  EXPECT_NEAR(R.locations()[1].bary.sum(), 1.0, 4 * DBL_EPSILON);
 }
 
 TEST(ShellProlongation, BadInputIsRejected) {

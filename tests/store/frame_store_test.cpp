@@ -1,4 +1,5 @@
 #include "store/frame_store.h"
+#include "support/input_error_of.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -52,15 +53,7 @@ FrameStats make_stats(int t, int num_objects) {
   return s;
 }
 
-template <typename F>
-std::string input_error_of(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no InputError thrown)";
-}
+using test::input_error_of;
 
 class FrameStoreTest : public ::testing::Test {
  protected:

@@ -97,7 +97,7 @@ double additive_ccd(const Vec<12>& x0, const Vec<12>& dx, double lp, SquaredDist
                     double ratio, double xi, double t_max, int max_iterations, AccdInfo& info) {
   info = AccdInfo{};
   info.motion_bound = lp;
-  const double eta = std::clamp(ratio, 0.01, 0.99);
+  const double eta = std::clamp(ratio, 0.001, 0.999);
   const double g0 = gap_from_squared(dist2(x0), xi);
   info.initial_gap = g0;
   info.returned_gap = g0;

@@ -77,7 +77,7 @@ struct AccdInfo {
 constexpr int kAccdDefaultMaxIterations = 10000;
 
 // x0, dx: (p, t0, t1, t2) start positions and displacements, m. ratio in (0, 1) (values outside are
-// clamped to [0.01, 0.99]); thickness >= 0, m; t_max >= 0. info (optional) receives diagnostics.
+// clamped to [0.001, 0.999]; safe upsampling uses 0.001 for PSQ's keep-ratio 0.999); thickness >= 0, m; t_max >= 0. info (optional) receives diagnostics.
 double point_triangle_accd(const Vec<12>& x0, const Vec<12>& dx, double ratio, double thickness,
                            double t_max, AccdInfo* info = nullptr,
                            int max_iterations = kAccdDefaultMaxIterations);

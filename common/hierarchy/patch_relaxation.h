@@ -1,0 +1,170 @@
+#pragma once
+// Local relaxation solves used by safe upsampling (Progressive Shell Quasistatics, Zhang et al. 2023,
+// sections 4.4.3 "Expansion-patch relaxation" and 4.4.5 "Strain limiting feasibility").
+//
+// Safe upsampling inserts vertices and advances them toward their prolonged targets with CCD. CCD is
+// physics-oblivious: afterwards some contact pairs may sit closer than a wanted minimum gap, some
+// triangles may be crushed, and some may be stretched beyond a strain limit. The two functions here
+// move a given set of free vertices (every other vertex stays bit-for-bit where it is) to fix that,
+// while every iterate stays intersection-free (every Newton line search is capped by the contact
+// CCD of BarrierPotential::max_step).
+//
+// They work on a plain mesh: positions (n, 3) in metres, one row per vertex, 0-based indices, every
+// vertex referenced by a face (mesh.h conventions). They know nothing about hierarchies.
+//
+// ---- Shared energy (both solves) ------------------------------------------------------------
+// Minimised with projected Newton (solver/newton.h: newton_minimize, CHOLMOD), non-free dofs fixed:
+//
+//   E(x) = membrane(x) + anchor(x) + kappa * contact barrier(x)
+//
+//  * membrane: Neo-Hookean (physics/membrane_neo_hookean.h) on the faces with at least one free
+//    vertex, rest shape = RelaxationMesh::rest, material E = 1 Pa, nu = 0.3, thickness 1 m. Why a
+//    normalised material: no other elastic term competes with it; the anchor stiffness and the
+//    barrier stiffness below are both set relative to E * thickness (N/m, the membrane's stiffness
+//    per vertex, independent of the triangle size in 2D elasticity), so multiplying E * thickness by
+//    any factor scales the whole energy and leaves the minimiser unchanged. The membrane pulls each
+//    triangle toward its rest shape; its ln(J) term diverges as a triangle collapses, so it is also
+//    what "expands the ill-shaped elements" (a crushed triangle is pushed open).
+//    Faces skipped: a rest triangle that is degenerate (|e1 x e2| <= 1e-12 * longest edge^2, or
+//    non-finite) has no usable rest metric (its inverse would be infinite or noise), and a face whose
+//    *current* triangle has exactly zero area would make the start energy infinite (no Newton step is
+//    possible from +infinity). Both are left out of the membrane (and counted in the report).
+//  * anchor: InertiaTerm with h = 1 s, x_hat = the start positions and a uniform per-vertex "mass"
+//    anchor_stiffness * E * thickness (so the term is anchor_stiffness * (E t) / 2 * |x - x_start|^2).
+//    Needed because a flat membrane has no stiffness out of its plane (and a free vertex whose faces
+//    are all rest-shaped has none at all): without it the Newton system is singular. Uniform (not
+//    lumped by area) so that it stays commensurate with the size-independent membrane stiffness.
+//    Weak (default 1e-2 of the membrane) so it only regularises.
+//  * barrier: BarrierPotential over all of the mesh's contact primitives with barrier offset 0 and
+//    activation dhat_b (see each solve). Offset 0, not the contact thickness: the barrier is then
+//    finite for every intersection-free state (d > 0), so a start where pairs sit *below* the
+//    thickness offset is still admissible, and the barrier pushes those pairs out through the offset.
+//    CCD (ccd_ratio 0.9) keeps every iterate at d > 0. Pairs are the broad phase's (pairs sharing a
+//    vertex excluded; pairs within one object only with its self-contact flag on).
+//
+// Cost: the system has 3n dofs (fixed dofs are identity rows) and the broad phase / CCD run over the
+// whole mesh, so each iteration is O(n); pass a submesh when n is large and the patch is small
+// (contact with geometry left out of the submesh is then not seen).
+//
+// Pairs and faces whose vertices are all fixed cannot change; the success tests below only look at
+// pairs (faces) with at least one free vertex.
+//
+// Deterministic: no randomness; the same input gives the same output.
+#include <limits>
+#include <vector>
+
+#include "geometry/mesh.h"
+#include "physics/contact/broad_phase.h"
+
+namespace pd {
+
+struct RelaxationMesh {
+  const ContactPrimitives* primitives = nullptr;  // faces, edges, vertex_object, object_self_contact
+  const Positions* rest = nullptr;  // rest positions of the same vertices (m): the membrane's rest shape
+  double offset = 0.0;              // contact thickness xi (m, >= 0): contact happens at distance xi
+};
+
+struct GapRelaxationSettings {
+  double min_gap = 0.0;                 // wanted: d - offset >= min_gap for every pair (m), > 0
+  int max_stiffness_rounds = 16;        // kappa doubles each round (>= 1)
+  int newton_iterations_per_round = 20; // (>= 1)
+  double anchor_stiffness = 1e-2;       // anchor per vertex, in units of E * thickness (>= 0)
+};
+
+struct RelaxationReport {
+  int rounds = 0;              // stiffness rounds (relax_gaps) / reweighting rounds (relax_strain)
+  int newton_iterations = 0;   // Newton systems solved over all rounds
+  // min over pairs with a free vertex and d < offset + gap_reach of (d - offset), m; +inf if none.
+  // gap_reach = 2 * min_gap (relax_gaps) or the contact gap (relax_strain): values are exact below
+  // it, and +inf means every such pair is at least that far.
+  double min_gap_before = std::numeric_limits<double>::infinity();
+  double min_gap_after = std::numeric_limits<double>::infinity();
+  // relax_strain only: max over limited faces of sigma_max (largest principal stretch, 1 = rest).
+  double max_stretch_before = 0.0, max_stretch_after = 0.0;
+  // min over membrane faces of quality(x) / quality(rest), quality = 4 sqrt(3) area / sum |e|^2
+  // (1 = same shape as at rest up to scale; -> 0 as a triangle is crushed).
+  double min_relative_quality_before = 0.0, min_relative_quality_after = 0.0;
+  int skipped_faces = 0;       // faces with a free vertex left out of the membrane (see above)
+  bool satisfied = false;      // the goal of the solve was met (see each function)
+};
+
+// PSQ 4.4.3: relax the patch with Newton on E(x) above, barrier activation dhat_b = offset +
+// 2 * min_gap, over rounds of increasing barrier stiffness kappa (doubled each round), until every
+// pair with a free vertex has d - offset >= min_gap or the rounds run out.
+//
+// Why dhat_b = offset + 2 min_gap rather than offset + min_gap: a barrier only pushes while the pair
+// is inside its activation distance, and it balances an opposing elastic / anchor force only at a
+// distance where it is still active, i.e. strictly below dhat_b. With dhat_b = offset + min_gap the
+// target would be reached only in the limit kappa -> infinity; with twice that, a finite kappa puts
+// the equilibrium beyond offset + min_gap, and the barrier never pushes a pair beyond offset +
+// 2 min_gap (no over-shoot beyond that).
+//
+// Starting kappa: kappa_0 = 1e-2 (E t) / dhat_b^2 (J/m^4), then doubled per round. In a one-pair
+// model against a resisting stiffness k (N/m), the barrier's push -kappa b'(s) 2 d at d = dhat_b / 2
+// (the wanted distance offset + min_gap when offset = 0) is 4.33 kappa dhat_b^3, so it holds a
+// pair there against a displacement of dhat_b / 2 when kappa = k / (8.66 dhat_b^2). kappa_0 thus
+// wins against k = 0.087 E t: the default anchor (0.01 E t) is beaten in the first round (the first
+// round does something), while pairs are not shoved all the way to the barrier's reach (the smallest
+// kappa of the schedule that works disturbs the patch least, the point of a schedule that grows).
+// Against the membrane itself (k ~ E t) a few doublings are needed; 16 rounds reach
+// 655 (E t) / dhat_b^2, enough against k ~ 5700 E t.
+// Each round runs Newton until its step is below min(1e-2 dhat_b, 1e-5 * mean rest edge) or
+// newton_iterations_per_round, warm-started from the previous round.
+// At least one round is always run, so the membrane also opens crushed triangles when the gaps are
+// already fine. satisfied = every pair with a free vertex ends with d - offset >= min_gap.
+// Throws std::invalid_argument for: missing pointers or inconsistent sizes (rest / x rows vs
+// vertex_object), a free vertex out of [0, n) (duplicates are fine), min_gap <= 0 or not finite,
+// offset < 0, non-positive round / iteration counts, a negative anchor stiffness, or a start with a
+// pair at d <= 0 (touching / intersecting: the barrier is infinite there). Piercing without a close
+// pair (an edge through a large triangle's interior) is not detected: the start must be
+// intersection-free (physics/contact/start_check.h checks it).
+RelaxationReport relax_gaps(const RelaxationMesh& mesh, const std::vector<int>& free_vertices,
+                            const GapRelaxationSettings& settings, Positions& x);
+
+struct StrainRelaxationSettings {
+  double target_fraction = 1e-3;  // goal: sigma_max <= limit * (1 - target_fraction), in [0, 1)
+  // Barrier activation gap (m, > 0): dhat_b = offset + contact_gap. Pairs closer than that are
+  // pushed apart, and every iterate stays intersection-free. Default 1e-4 m, the low end of the gap
+  // range PSQ keeps between primitives (1e-4 to 1e-3 m), so the barrier stays local.
+  double contact_gap = 1e-4;
+  int max_rounds = 8;                   // membrane reweighting rounds (>= 1)
+  int newton_iterations_per_round = 50; // (>= 1)
+  double anchor_stiffness = 1e-2;       // as GapRelaxationSettings::anchor_stiffness
+};
+
+// PSQ 4.4.5 (PCS's strain-limit correction, with the old coarse vertices fixed and the new ones
+// free): move the free vertices so that every limited face's largest principal stretch sigma_max is
+// at most face_limit[f] * (1 - target_fraction).
+//
+// face_limit: one entry per face of mesh.primitives->faces, > 1 = limit on sigma_max (dimensionless),
+// 0 = no limit for that face. The energy is E(x) above (barrier with dhat_b = offset + contact_gap
+// and kappa = (E t) / dhat_b^2, fixed). Round k minimises it with the membrane weight of each face
+// multiplied by w_f, w_f starting at 1 and doubled every round in which face f (limited, with a free
+// vertex) ends above its goal (iteratively reweighted membrane): the membrane alone spreads stretch
+// over the free vertices, and the growing weights trade stretch away from the violating faces to
+// their neighbours that are under their limits. Why not the StrainLimitTerm barrier: it is infinite
+// at an over-limit start, which is exactly the state this solve starts from. Stops when every limited
+// face with a free vertex meets its goal, when no violating face can change (all fixed), after
+// max_rounds, or when a round improves the largest stretch ratio sigma_max / limit by less than
+// 1e-6 (relative). Faces whose vertices are all fixed cannot be fixed here; they still count in
+// max_stretch_* and make satisfied false if over their limit.
+// satisfied = every limited face meets its goal.
+// Throws std::invalid_argument as relax_gaps (minus min_gap), and for face_limit of the wrong size or
+// an entry that is not 0 and not a finite value > 1, target_fraction outside [0, 1), contact_gap <= 0.
+RelaxationReport relax_strain(const RelaxationMesh& mesh, const std::vector<int>& free_vertices,
+                              const std::vector<double>& face_limit, const StrainRelaxationSettings& settings,
+                              Positions& x);
+
+// ---- Helpers (exposed for tests and callers' diagnostics) ------------------------------------
+
+// min over point-triangle / edge-edge candidate pairs (broad phase rules) with at least one vertex
+// in `free_mask` (size n, 1 = free; empty = every vertex counts) and distance < offset + reach, of
+// (d - offset) in m; +inf if there is none. reach >= 0 (m).
+double relaxation_min_gap(const ContactPrimitives& primitives, const Positions& x, double offset,
+                          double reach, const std::vector<char>& free_mask = {});
+
+// Shape quality of a triangle: 4 sqrt(3) * area / (sum of squared edge lengths), dimensionless,
+// 1 for equilateral, 0 for degenerate.
+double triangle_quality(const Vec3& a, const Vec3& b, const Vec3& c);
+
+}  // namespace pd

@@ -1,0 +1,197 @@
+#include "store/h5_util.h"
+
+#include <unistd.h>
+
+namespace pd::h5 {
+
+void quiet_hdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+
+std::string hdf5_detail() {
+  std::string detail;
+  auto take_first = [](unsigned n, const H5E_error2_t* err, void* out) -> herr_t {
+    if (n == 0 && err->desc != nullptr) *static_cast<std::string*>(out) = err->desc;
+    return 0;
+  };
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, take_first, &detail);
+  return detail;
+}
+
+Handle simple_space(const Shape& dims) {
+  return Handle(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
+}
+
+Handle vlen_string_type() {
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type.get(), H5T_VARIABLE);
+  H5Tset_cset(type.get(), H5T_CSET_UTF8);
+  return type;
+}
+
+std::string level_name(const char* root, int level, const char* leaf) {
+  std::string name = std::string(root) + "/" + std::to_string(level);
+  return leaf ? name + "/" + leaf : name;
+}
+
+std::string join(const std::vector<long long>& v) {
+  std::string s;
+  for (long long x : v) s += (s.empty() ? "" : ", ") + (x < 0 ? std::string("*") : std::to_string(x));
+  return "(" + s + ")";
+}
+
+void File::fail(const std::string& object, const std::string& what) const {
+  throw InputError(path + ": " + (object.empty() ? "" : object + ": ") + what);
+}
+
+void File::fail_h5(const std::string& object, const std::string& what) const {
+  std::string detail = hdf5_detail();
+  fail(object, detail.empty() ? what : what + " (HDF5: " + detail + ")");
+}
+
+bool File::exists(const std::string& name) const {
+  // H5Lexists fails (rather than returning 0) when an intermediate group is missing: walk the path.
+  std::string prefix;
+  size_t pos = 0;
+  while (pos < name.size()) {
+    size_t next = name.find('/', pos + 1);
+    if (next == std::string::npos) next = name.size();
+    prefix = name.substr(0, next);
+    if (prefix != "/" && H5Lexists(id.get(), prefix.c_str(), H5P_DEFAULT) <= 0) return false;
+    pos = next;
+  }
+  return true;
+}
+
+void File::make_group(const std::string& name) const {
+  checked(H5Gcreate2(id.get(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, name,
+          "cannot create group");
+}
+
+Handle File::create(const std::string& name, hid_t file_type, const Shape& dims, const Shape& chunk,
+                    hid_t fill_type, const void* fill) const {
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  if (!chunk.empty())
+    check(H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()), name, "bad chunk shape");
+  if (fill) check(H5Pset_fill_value(dcpl.get(), fill_type, fill), name, "bad fill value");
+  Handle space = simple_space(dims);
+  return checked(H5Dcreate2(id.get(), name.c_str(), file_type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
+                 H5Dclose, name, "cannot create dataset");
+}
+
+void File::io(bool write, hid_t dset, const std::string& name, hid_t mem_type, const Shape& start,
+              const Shape& count, void* data) const {
+  for (hsize_t c : count)
+    if (c == 0) return;  // nothing to transfer
+  Handle file_space = checked(H5Dget_space(dset), H5Sclose, name, "cannot get dataspace");
+  check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr),
+        name, "block outside the dataset");
+  Handle mem_space = simple_space(count);
+  check(write ? H5Dwrite(dset, mem_type, mem_space.get(), file_space.get(), H5P_DEFAULT, data)
+              : H5Dread(dset, mem_type, mem_space.get(), file_space.get(), H5P_DEFAULT, data),
+        name, write ? "write failed" : "read failed");
+}
+
+void File::write_whole(const std::string& name, hid_t file_type, hid_t mem_type, const Shape& dims,
+                       const void* data) const {
+  Handle d = create(name, file_type, dims);
+  io(true, d.get(), name, mem_type, Shape(dims.size(), 0), dims, const_cast<void*>(data));
+}
+
+Handle File::open(const std::string& name, H5T_class_t cls, const std::vector<long long>& shape, Shape* dims) const {
+  Handle d = checked(H5Dopen2(id.get(), name.c_str(), H5P_DEFAULT), H5Dclose, name, "missing dataset");
+  Handle type(H5Dget_type(d.get()), H5Tclose);
+  if (H5Tget_class(type.get()) != cls) fail(name, "dataset has the wrong element type");
+  Handle space(H5Dget_space(d.get()), H5Sclose);
+  int rank = H5Sget_simple_extent_ndims(space.get());
+  Shape got(rank > 0 ? rank : 0);
+  if (rank > 0) H5Sget_simple_extent_dims(space.get(), got.data(), nullptr);
+  std::vector<long long> got_ll(got.begin(), got.end());
+  bool ok = got.size() == shape.size();
+  for (size_t i = 0; ok && i < got.size(); ++i) ok = shape[i] < 0 || got_ll[i] == shape[i];
+  if (!ok) fail(name, "shape " + join(got_ll) + ", expected " + join(shape));
+  if (dims) *dims = got;
+  return d;
+}
+
+void File::read_into(const std::string& name, hid_t mem_type, H5T_class_t cls, const std::vector<long long>& shape,
+                     void* out) const {
+  Shape dims;
+  Handle d = open(name, cls, shape, &dims);
+  io(false, d.get(), name, mem_type, Shape(dims.size(), 0), dims, out);
+}
+
+std::vector<std::string> File::read_strings(hid_t obj, bool attr, const std::string& name, hsize_t count) const {
+  Handle type(attr ? H5Aget_type(obj) : H5Dget_type(obj), H5Tclose);
+  if (H5Tget_class(type.get()) != H5T_STRING || H5Tis_variable_str(type.get()) <= 0)
+    fail(name, "expected variable-length strings");
+  Handle mem = vlen_string_type();
+  std::vector<char*> raw(count, nullptr);
+  check(attr ? H5Aread(obj, mem.get(), raw.data()) : H5Dread(obj, mem.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, raw.data()),
+        name, "read failed");
+  std::vector<std::string> out;
+  for (char* s : raw) {
+    out.emplace_back(s ? s : "");
+    H5free_memory(s);
+  }
+  return out;
+}
+
+namespace {
+std::string attr_label(const std::string& object, const char* attr) {
+  return (object == "/" ? std::string("/") : object + "/") + "@" + attr;
+}
+}  // namespace
+
+void File::write_int_attr(const std::string& object, const char* attr, int value) const {
+  const std::string label = attr_label(object, attr);
+  if (H5Aexists_by_name(id.get(), object.c_str(), attr, H5P_DEFAULT) > 0)
+    check(H5Adelete_by_name(id.get(), object.c_str(), attr, H5P_DEFAULT), label, "cannot replace attribute");
+  Handle scalar(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle a = checked(H5Acreate_by_name(id.get(), object.c_str(), attr, H5T_STD_I32LE, scalar.get(), H5P_DEFAULT,
+                                       H5P_DEFAULT, H5P_DEFAULT),
+                     H5Aclose, label, "cannot create attribute");
+  check(H5Awrite(a.get(), H5T_NATIVE_INT, &value), label, "write failed");
+}
+
+void File::write_string_attr(const std::string& object, const char* attr, const std::string& value) const {
+  const std::string label = attr_label(object, attr);
+  if (H5Aexists_by_name(id.get(), object.c_str(), attr, H5P_DEFAULT) > 0)
+    check(H5Adelete_by_name(id.get(), object.c_str(), attr, H5P_DEFAULT), label, "cannot replace attribute");
+  Handle scalar(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle str = vlen_string_type();
+  Handle a = checked(H5Acreate_by_name(id.get(), object.c_str(), attr, str.get(), scalar.get(), H5P_DEFAULT,
+                                       H5P_DEFAULT, H5P_DEFAULT),
+                     H5Aclose, label, "cannot create attribute");
+  const char* text = value.c_str();
+  check(H5Awrite(a.get(), str.get(), &text), label, "write failed");
+}
+
+int File::read_int_attr(const std::string& object, const char* attr) const {
+  const std::string label = attr_label(object, attr);
+  Handle a = checked(H5Aopen_by_name(id.get(), object.c_str(), attr, H5P_DEFAULT, H5P_DEFAULT), H5Aclose, label,
+                     "missing attribute");
+  Handle type(H5Aget_type(a.get()), H5Tclose);
+  if (H5Tget_class(type.get()) != H5T_INTEGER) fail(label, "attribute is not an integer");
+  int value = 0;
+  check(H5Aread(a.get(), H5T_NATIVE_INT, &value), label, "read failed");
+  return value;
+}
+
+std::string File::read_string_attr(const std::string& object, const char* attr) const {
+  const std::string label = attr_label(object, attr);
+  Handle a = checked(H5Aopen_by_name(id.get(), object.c_str(), attr, H5P_DEFAULT, H5P_DEFAULT), H5Aclose, label,
+                     "missing attribute");
+  return read_strings(a.get(), true, label, 1).front();
+}
+
+bool File::has_attr(const std::string& object, const char* attr) const {
+  return exists(object) && H5Aexists_by_name(id.get(), object.c_str(), attr, H5P_DEFAULT) > 0;
+}
+
+void File::flush() const {
+  check(H5Fflush(id.get(), H5F_SCOPE_LOCAL), "", "flush failed");
+  void* fd = nullptr;
+  check(H5Fget_vfd_handle(id.get(), H5P_DEFAULT, &fd), "", "cannot get the file descriptor");
+  if (fsync(*static_cast<int*>(fd)) != 0) fail("", "fsync failed");
+}
+
+}  // namespace pd::h5

@@ -1,0 +1,103 @@
+#pragma once
+// Small helpers over the HDF5 C API shared by the frame store (frame_store.cpp) and the hierarchy
+// store (hierarchy_store.cpp). Internal to common/store: not part of the library's public surface.
+//
+// Every failure becomes InputError "<path>: <object>: <what>", with the innermost message of HDF5's
+// error stack appended when there is one, so a bad file is reported by name and object.
+#include <hdf5.h>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "util/input_error.h"
+
+namespace pd::h5 {
+
+using Shape = std::vector<hsize_t>;
+
+// Owns one hid_t and closes it with the matching H5?close function.
+class Handle {
+ public:
+  using Closer = herr_t (*)(hid_t);
+  Handle() = default;
+  Handle(hid_t id, Closer closer) : id_(id), closer_(closer) {}
+  Handle(Handle&& o) noexcept : id_(std::exchange(o.id_, H5I_INVALID_HID)), closer_(o.closer_) {}
+  Handle& operator=(Handle&& o) noexcept {
+    if (this != &o) {
+      reset();
+      id_ = std::exchange(o.id_, H5I_INVALID_HID);
+      closer_ = o.closer_;
+    }
+    return *this;
+  }
+  ~Handle() { reset(); }
+  hid_t get() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+  herr_t reset() {  // closes the id now; returns the close function's status
+    herr_t status = id_ >= 0 && closer_ ? closer_(id_) : 0;
+    id_ = H5I_INVALID_HID;
+    return status;
+  }
+
+ private:
+  hid_t id_ = H5I_INVALID_HID;
+  Closer closer_ = nullptr;
+};
+
+// Turns off HDF5's printing of its error stack; failures are reported as InputError instead.
+void quiet_hdf5();
+// The innermost message of the current HDF5 error stack ("" when empty).
+std::string hdf5_detail();
+
+Handle simple_space(const Shape& dims);
+Handle vlen_string_type();  // variable-length UTF-8 strings
+// "<root>/<level>[/<leaf>]", e.g. level_name("/levels", 1, "done") = "/levels/1/done".
+std::string level_name(const char* root, int level, const char* leaf = nullptr);
+std::string join(const std::vector<long long>& v);  // "(5, *, 3)"; -1 prints as *
+
+// An HDF5 file and its path; every failure becomes InputError "<path>: <object>: <what>".
+struct File {
+  std::string path;
+  Handle id;
+
+  [[noreturn]] void fail(const std::string& object, const std::string& what) const;
+  [[noreturn]] void fail_h5(const std::string& object, const std::string& what) const;
+  void check(herr_t status, const std::string& object, const char* what) const {
+    if (status < 0) fail_h5(object, what);
+  }
+  Handle checked(hid_t h, Handle::Closer closer, const std::string& object, const char* what) const {
+    if (h < 0) fail_h5(object, what);
+    return Handle(h, closer);
+  }
+
+  bool exists(const std::string& name) const;  // every link of the path exists (no error when not)
+  void make_group(const std::string& name) const;
+  // Creates dataset `name` with an optional fill value and, if chunk is non-empty, chunked layout.
+  Handle create(const std::string& name, hid_t file_type, const Shape& dims, const Shape& chunk = {},
+                hid_t fill_type = H5T_NATIVE_DOUBLE, const void* fill = nullptr) const;
+  // Reads (write = false) or writes the block [start, start + count) of dataset `dset` called `name`.
+  void io(bool write, hid_t dset, const std::string& name, hid_t mem_type, const Shape& start, const Shape& count,
+          void* data) const;
+  void write_whole(const std::string& name, hid_t file_type, hid_t mem_type, const Shape& dims,
+                   const void* data) const;
+  // Opens dataset `name`, checks its type class and shape (-1 matches any extent); dims gets the shape.
+  Handle open(const std::string& name, H5T_class_t cls, const std::vector<long long>& shape,
+              Shape* dims = nullptr) const;
+  // Reads all of dataset `name`, whose shape must be `shape`, into out.
+  void read_into(const std::string& name, hid_t mem_type, H5T_class_t cls, const std::vector<long long>& shape,
+                 void* out) const;
+  // Reads `count` variable-length strings from an attribute (attr = true) or a dataset `obj`.
+  std::vector<std::string> read_strings(hid_t obj, bool attr, const std::string& name, hsize_t count) const;
+  // Scalar attributes `attr` of the object at path `object` ("/" for the root group). The error
+  // messages name them "<object>@<attr>".
+  void write_int_attr(const std::string& object, const char* attr, int value) const;
+  void write_string_attr(const std::string& object, const char* attr, const std::string& value) const;
+  int read_int_attr(const std::string& object, const char* attr) const;
+  std::string read_string_attr(const std::string& object, const char* attr) const;
+  bool has_attr(const std::string& object, const char* attr) const;
+  // H5Fflush, then fsync, so that data flushed before a later write also reaches the disk first.
+  void flush() const;
+};
+
+}  // namespace pd::h5

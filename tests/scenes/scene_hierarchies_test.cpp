@@ -1,0 +1,68 @@
+// Every example scene of scenes/ builds its level hierarchy as written (the scene's "hierarchy" keys,
+// docs/scene-format.md) and every level's direct prolongation gives back the finest rest shape to
+// round-off (HierarchyLevelReport::rest_prolongation_error < 1e-12 * the finest bounding-box
+// diagonal). The scenes are listed explicitly; a scene file that is not listed fails the test, so a
+// new scene has to be added here. Prints one line per scene with its level vertex counts.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "hierarchy/scene_hierarchy.h"
+#include "scene/scene_file.h"
+#include "support/test_paths.h"
+
+namespace pd {
+namespace {
+
+const std::vector<std::string> kScenes = {
+    "balloon",   "cube-trampoline", "drape-sphere", "flag",           "hanging-sheet",
+    "self-fold", "slope-friction",  "spin-sphere",  "strip-cantilever",
+};
+
+TEST(SceneHierarchies, EveryExampleSceneIsListed) {
+  std::vector<std::string> found;
+  for (const auto& e : std::filesystem::directory_iterator(test::source_dir() + "/scenes"))
+    if (e.path().extension() == ".json") found.push_back(e.path().stem().string());
+  std::sort(found.begin(), found.end());
+  std::vector<std::string> listed = kScenes;
+  std::sort(listed.begin(), listed.end());
+  EXPECT_EQ(found, listed) << "scenes/*.json and kScenes differ: list every scene here";
+}
+
+TEST(SceneHierarchies, EveryExampleSceneBuildsItsHierarchyWithExactRestRecovery) {
+  for (const std::string& name : kScenes) {
+    SCOPED_TRACE(name);
+    const Scene scene = load_scene(test::source_dir() + "/scenes/" + name + ".json");
+    std::vector<HierarchyLevelReport> report;
+    SceneHierarchy h;
+    try {
+      h = build_scene_hierarchy(scene, &report);
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << name << ": building the hierarchy failed: " << e.what();
+      continue;
+    }
+    ASSERT_EQ(h.num_levels(), scene.hierarchy.levels);
+    ASSERT_EQ(static_cast<int>(report.size()), h.num_levels());
+    const Positions& finest = h.levels.back().rest.V;
+    const double diagonal = (finest.colwise().maxCoeff() - finest.colwise().minCoeff()).norm();
+    std::string counts;
+    for (int l = 0; l < h.num_levels(); ++l) {
+      const HierarchyLevelReport& r = report[static_cast<size_t>(l)];
+      EXPECT_EQ(r.vertices, h.levels[static_cast<size_t>(l)].rest.V.rows()) << "level " << l;
+      EXPECT_LT(r.rest_prolongation_error, 1e-12 * diagonal) << "level " << l;
+      if (l > 0) {
+        EXPECT_GE(r.vertices, report[static_cast<size_t>(l) - 1].vertices) << "level " << l;
+      }
+      counts += (l ? " / " : "") + std::to_string(r.vertices);
+    }
+    std::printf("%-17s %d levels, vertices (coarsest to finest): %s\n", name.c_str(), h.num_levels(),
+                counts.c_str());
+  }
+}
+
+}  // namespace
+}  // namespace pd
