@@ -23,6 +23,7 @@ struct Pair {
   double keep = 0.0;          // the gap it must keep (m): ratio r times its gap at the first evaluation
   bool close = false;         // it started much closer than the reference gap
   double floor = 0.0;         // keep never goes below this (m; see the header, "Floor")
+  bool redirected = false;    // it has already turned its vertices once (see the header, "Sliding")
 };
 
 constexpr int kAccdIterations = 200;  // see the header
@@ -290,7 +291,7 @@ AdvanceReport advance_toward_targets(const ContactPrimitives& prims, double offs
       const Vec3 w = motion.rate(v);
       if (!(side(j) * w.dot(normal) < 0.0)) continue;
       approaching = true;
-      if (redirects[static_cast<std::size_t>(v)] < settings.max_redirects) {
+      if (!p.redirected && redirects[static_cast<std::size_t>(v)] < settings.max_redirects) {
         ++redirects[static_cast<std::size_t>(v)];
         ++report.redirections;
         motion.redirect(v, w - w.dot(normal) * normal);
@@ -301,6 +302,7 @@ AdvanceReport advance_toward_targets(const ContactPrimitives& prims, double offs
       changed.push_back(v);
     }
     if (approaching) {
+      p.redirected = true;
       // Slack for what the first-order projection misses (rotation, sliding off an edge): half the
       // kept gap for a far pair, 1% for a close one (which must not come much closer).
       p.keep = std::max(p.keep * (p.close ? 0.99 : 0.5), p.floor);

@@ -15,11 +15,13 @@
 // along the surface, yet one small approaching component stopped the vertex for the rest of the
 // batch and left a collapsed edge behind (on a drape over a box, most vertices at the box stopped).
 // So the vertices that approach the other primitive (negative velocity along the pair's normal,
-// from its second primitive toward its first) lose that component and keep sliding, at most
-// max_redirects times each, then stop; the pair's kept gap is lowered each time (halved for a far
-// pair, by 1% for a close one) for the slack that a first-order projection does not cover. A pair that bounds the motion without any approaching
-// vertex (rotation, sliding off an edge) stops its stencil as in PSQ. Every event redirects or
-// stops a vertex, so there are at most (max_redirects + 1) n events.
+// from its second primitive toward its first) lose that component and keep sliding; each pair turns
+// its vertices once (a pair that bounds the motion again stops them), each vertex at most
+// max_redirects times, so a vertex can slide across many facets of a collider but never loops.
+// The pair's kept gap is lowered when it turns them (halved for a far pair, by 1% for a close one)
+// for the slack that a first-order projection does not cover. A pair that bounds the motion without
+// any approaching vertex (rotation, sliding off an edge) stops its stencil as in PSQ. Every event
+// turns or stops a vertex, so there are at most (max_redirects + 1) n events.
 //
 // Ratio bounds (Algorithm 4). Every pair keeps d1 >= r d0 of its gap d0 at the start of the
 // advancement: r = close_ratio (0.999) for pairs already much closer than the reference gap g
@@ -81,7 +83,7 @@ struct AdvanceSettings {
   double close_ratio = 0.999;   // PSQ's r for close pairs (keep 99.9% of the gap)
   double far_ratio = 0.1;       // PSQ's r for the others
   // Times a vertex may have its approaching component removed (see "Sliding") before it stops.
-  int max_redirects = 3;
+  int max_redirects = 32;
 };
 
 struct AdvanceReport {

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "hierarchy/contact_submesh.h"
 #include "hierarchy/patch_relaxation.h"
 #include "physics/contact/start_check.h"
 #include "physics/strain_limit.h"
@@ -33,8 +34,8 @@ Vec3 random_direction(std::mt19937_64& rng) {
   return Vec3(r * std::cos(phi), r * std::sin(phi), z);
 }
 
-// The mesh of the present vertices, renumbered 0..m-1 (contact primitives need every vertex to be a
-// real point of the surface, and vertices not yet restored must not be).
+// The mesh of the present vertices (those the current faces use: every vertex of level l and the
+// ones restored so far), renumbered 0..m-1.
 struct CompactMesh {
   std::vector<int> global;     // compact id -> level l+1 id
   std::vector<int> compact;    // level l+1 id -> compact id, -1 if absent
@@ -42,52 +43,18 @@ struct CompactMesh {
   Positions rest;              // level l+1 rest positions of the present vertices
 };
 
-CompactMesh compact_mesh(const UpsamplingLevel& level, const std::vector<char>& present,
-                         const std::set<Tri>& faces) {
-  CompactMesh m;
-  const int n = static_cast<int>(present.size());
-  m.compact.assign(static_cast<std::size_t>(n), -1);
-  for (int i = 0; i < n; ++i)
-    if (present[static_cast<std::size_t>(i)]) {
-      m.compact[static_cast<std::size_t>(i)] = static_cast<int>(m.global.size());
-      m.global.push_back(i);
-    }
-  const int c = static_cast<int>(m.global.size());
-  m.rest.resize(c, 3);
-  m.prims.vertex_object.resize(static_cast<std::size_t>(c));
-  for (int k = 0; k < c; ++k) {
-    m.rest.row(k) = level.fine.V.row(m.global[static_cast<std::size_t>(k)]);
-    m.prims.vertex_object[static_cast<std::size_t>(k)] =
-        level.vertex_object[static_cast<std::size_t>(m.global[static_cast<std::size_t>(k)])];
-  }
-  m.prims.object_self_contact = level.object_self_contact;
-  m.prims.faces.resize(static_cast<Eigen::Index>(faces.size()), 3);
-  std::vector<std::array<int, 2>> edges;
-  edges.reserve(3 * faces.size());
+CompactMesh compact_mesh(const UpsamplingLevel& level, const std::set<Tri>& faces) {
+  Faces F(static_cast<Eigen::Index>(faces.size()), 3);
   int f = 0;
-  for (const Tri& t : faces) {
-    for (int k = 0; k < 3; ++k) {
-      const int a = m.compact[static_cast<std::size_t>(t[static_cast<std::size_t>(k)])];
-      const int b = m.compact[static_cast<std::size_t>(t[static_cast<std::size_t>((k + 1) % 3)])];
-      m.prims.faces(f, k) = a;
-      edges.push_back({std::min(a, b), std::max(a, b)});
-    }
-    ++f;
-  }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  m.prims.edges = std::move(edges);
+  for (const Tri& t : faces) F.row(f++) << t[0], t[1], t[2];
+  ContactSubmesh sub = contact_submesh(F, level.vertex_object, level.object_self_contact);
+  CompactMesh m;
+  m.compact.assign(static_cast<std::size_t>(level.fine.V.rows()), -1);
+  for (std::size_t k = 0; k < sub.vertices.size(); ++k) m.compact[static_cast<std::size_t>(sub.vertices[k])] = static_cast<int>(k);
+  m.rest = gather_rows(level.fine.V, sub.vertices);
+  m.global = std::move(sub.vertices);
+  m.prims = std::move(sub.prims);
   return m;
-}
-
-Positions gather(const Positions& x, const std::vector<int>& ids) {
-  Positions out(static_cast<Eigen::Index>(ids.size()), 3);
-  for (std::size_t k = 0; k < ids.size(); ++k) out.row(static_cast<Eigen::Index>(k)) = x.row(ids[k]);
-  return out;
-}
-
-void scatter(const Positions& xc, const std::vector<int>& ids, Positions& x) {
-  for (std::size_t k = 0; k < ids.size(); ++k) x.row(ids[k]) = xc.row(static_cast<Eigen::Index>(k));
 }
 
 std::optional<GroundPlane> compact_ground(const UpsamplingLevel& level, const CompactMesh& m) {
@@ -113,11 +80,6 @@ double mean_edge_length(const TriMesh& mesh) {
 // triangles at its kept vertex, moved by eps), and a sliver opened to the wrong side folds onto its
 // neighbours.
 bool patch_valid(const Collapse& c, const Positions& x, double tolerance) {
-  std::vector<int> ids;
-  for (const Tri& t : c.faces_before) ids.insert(ids.end(), t.begin(), t.end());
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  auto local = [&](int v) { return static_cast<int>(std::lower_bound(ids.begin(), ids.end(), v) - ids.begin()); };
   auto has = [](const Tri& t, int v) { return t[0] == v || t[1] == v || t[2] == v; };
   auto normal = [&](const Tri& t) -> Vec3 {
     return (row(x, t[1]) - row(x, t[0])).cross(row(x, t[2]) - row(x, t[0]));
@@ -137,28 +99,19 @@ bool patch_valid(const Collapse& c, const Positions& x, double tolerance) {
     if (!(n.norm() > 1e-12 * e1 * e2)) return false;
     if (reference.norm() > 0.0 && !(n.dot(reference) > 0.0)) return false;
   }
-  ContactPrimitives prims;
-  prims.faces.resize(static_cast<Eigen::Index>(c.faces_before.size()), 3);
-  std::vector<std::array<int, 2>> edges;
+  Faces F(static_cast<Eigen::Index>(c.faces_before.size()), 3);
   for (std::size_t f = 0; f < c.faces_before.size(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int a = local(c.faces_before[f][static_cast<std::size_t>(k)]);
-      const int b = local(c.faces_before[f][static_cast<std::size_t>((k + 1) % 3)]);
-      prims.faces(static_cast<Eigen::Index>(f), k) = a;
-      edges.push_back({std::min(a, b), std::max(a, b)});
-    }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  prims.edges = std::move(edges);
-  prims.vertex_object.assign(ids.size(), 0);
-  prims.object_self_contact = {1};
-  // Only what involves the restored vertex counts: a pair elsewhere in the patch that was already
+    F.row(static_cast<Eigen::Index>(f)) << c.faces_before[f][0], c.faces_before[f][1], c.faces_before[f][2];
+  const ContactSubmesh patch = contact_submesh(F, {}, {1});
+  const ContactPrimitives& prims = patch.prims;
+  const std::vector<int>& ids = patch.vertices;
+// Only what involves the restored vertex counts: a pair elsewhere in the patch that was already
   // that close (left by an earlier stop) is no reason to reject a direction, and no direction fixes it.
-  const int j = local(c.removed);
+  const int j = patch.local(c.removed);
   int total = 0;
-  find_start_violations(prims, gather(x, ids), tolerance, 0, &total);
+  find_start_violations(prims, gather_rows(x, ids), tolerance, 0, &total);
   if (total == 0) return true;
-  for (const StartViolation& v : find_start_violations(prims, gather(x, ids), tolerance, total)) {
+  for (const StartViolation& v : find_start_violations(prims, gather_rows(x, ids), tolerance, total)) {
     const bool a_has = v.kind == StartViolation::Kind::PointTriangle ? v.a == j : prims.edges[static_cast<std::size_t>(v.a)][0] == j || prims.edges[static_cast<std::size_t>(v.a)][1] == j;
     const bool b_has = v.kind == StartViolation::Kind::EdgeEdge
                            ? prims.edges[static_cast<std::size_t>(v.b)][0] == j || prims.edges[static_cast<std::size_t>(v.b)][1] == j
@@ -227,59 +180,29 @@ void relax_patch(const ContactPrimitives& prims, const Positions& rest, const st
           if (occupied.count({c[0] + i, c[1] + j, c[2] + k})) return true;
     return false;
   };
-  std::vector<char> take(static_cast<std::size_t>(prims.faces.rows()), 0);
-  std::vector<int> sub_of(n, -1), sub_vertices;
-  for (int f = 0; f < prims.faces.rows(); ++f) {
-    for (int k = 0; k < 3; ++k) {
-      const int v = prims.faces(f, k);
-      if (region[static_cast<std::size_t>(v)] || near_patch(row(x, v))) take[static_cast<std::size_t>(f)] = 1;
-    }
-    if (!take[static_cast<std::size_t>(f)]) continue;
-    for (int k = 0; k < 3; ++k) {
-      const int v = prims.faces(f, k);
-      if (sub_of[static_cast<std::size_t>(v)] < 0) {
-        sub_of[static_cast<std::size_t>(v)] = static_cast<int>(sub_vertices.size());
-        sub_vertices.push_back(v);
-      }
-    }
-  }
-  ContactPrimitives sub;
-  std::vector<int> face_ids;
+  std::vector<int> taken;
   for (int f = 0; f < prims.faces.rows(); ++f)
-    if (take[static_cast<std::size_t>(f)]) face_ids.push_back(f);
-  sub.faces.resize(static_cast<Eigen::Index>(face_ids.size()), 3);
-  for (std::size_t k = 0; k < face_ids.size(); ++k)
-    for (int c = 0; c < 3; ++c) sub.faces(static_cast<Eigen::Index>(k), c) = sub_of[static_cast<std::size_t>(prims.faces(face_ids[k], c))];
-  for (const auto& e : prims.edges)
-    if (sub_of[static_cast<std::size_t>(e[0])] >= 0 && sub_of[static_cast<std::size_t>(e[1])] >= 0)
-      sub.edges.push_back({sub_of[static_cast<std::size_t>(e[0])], sub_of[static_cast<std::size_t>(e[1])]});
-  std::sort(sub.edges.begin(), sub.edges.end());
-  for (int v : sub_vertices) sub.vertex_object.push_back(prims.vertex_object[static_cast<std::size_t>(v)]);
-  sub.object_self_contact = prims.object_self_contact;
-  // An edge whose two ends are in the submesh but none of whose faces is would be a contact edge
-  // without a surface; keep only edges of the submesh's faces.
-  {
-    std::vector<std::array<int, 2>> own;
-    for (int f = 0; f < sub.faces.rows(); ++f)
-      for (int k = 0; k < 3; ++k) {
-        const int a = sub.faces(f, k), b = sub.faces(f, (k + 1) % 3);
-        own.push_back({std::min(a, b), std::max(a, b)});
+    for (int k = 0; k < 3; ++k) {
+      const int v = prims.faces(f, k);
+      if (region[static_cast<std::size_t>(v)] || near_patch(row(x, v))) {
+        taken.push_back(f);
+        break;
       }
-    std::sort(own.begin(), own.end());
-    own.erase(std::unique(own.begin(), own.end()), own.end());
-    sub.edges = std::move(own);
-  }
-  const Positions sub_rest = gather(rest, sub_vertices);
-  Positions sub_x = gather(x, sub_vertices);
+    }
+  Faces F(static_cast<Eigen::Index>(taken.size()), 3);
+  for (std::size_t k = 0; k < taken.size(); ++k) F.row(static_cast<Eigen::Index>(k)) = prims.faces.row(taken[k]);
+  const ContactSubmesh sub = contact_submesh(F, prims.vertex_object, prims.object_self_contact);
+  const Positions sub_rest = gather_rows(rest, sub.vertices);
+  Positions sub_x = gather_rows(x, sub.vertices);
   std::vector<int> sub_free;
-  for (int v : free) sub_free.push_back(sub_of[static_cast<std::size_t>(v)]);
+  for (int v : free) sub_free.push_back(sub.local(v));
   GapRelaxationSettings settings;
   settings.min_gap = min_gap;
   settings.max_stiffness_rounds = 8;  // 128x the starting stiffness; what is left is reported
-  relax_gaps(RelaxationMesh{&sub, &sub_rest, offset}, sub_free, settings, sub_x);
+  relax_gaps(RelaxationMesh{&sub.prims, &sub_rest, offset}, sub_free, settings, sub_x);
 
   Positions aim = x;
-  scatter(sub_x, sub_vertices, aim);
+  scatter_rows(sub_x, sub.vertices, aim);
   advance_toward_targets(prims, offset, gap, ground, aim, x);
 }
 
@@ -308,12 +231,8 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
 
   // The dynamic mesh: level l in level l+1 ids.
   Positions x = Positions::Zero(nf, 3);
-  std::vector<char> present(static_cast<std::size_t>(nf), 0);
-  for (std::size_t c = 0; c < level.collapses.coarse_to_fine.size(); ++c) {
-    const int i = level.collapses.coarse_to_fine[c];
-    present[static_cast<std::size_t>(i)] = 1;
-    x.row(i) = x_coarse.row(static_cast<Eigen::Index>(c));
-  }
+  for (std::size_t c = 0; c < level.collapses.coarse_to_fine.size(); ++c)
+    x.row(level.collapses.coarse_to_fine[c]) = x_coarse.row(static_cast<Eigen::Index>(c));
   std::set<Tri> faces;
   for (int f = 0; f < level.coarse_faces.rows(); ++f) {
     const auto& c2f = level.collapses.coarse_to_fine;
@@ -327,12 +246,11 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     faces.clear();
     for (int f = 0; f < level.fine.F.rows(); ++f)
       faces.insert(canonical_tri(level.fine.F(f, 0), level.fine.F(f, 1), level.fine.F(f, 2)));
-    present.assign(static_cast<std::size_t>(nf), 1);
     x = target;
   } else {
-    CompactMesh m0 = compact_mesh(level, present, faces);
+    CompactMesh m0 = compact_mesh(level, faces);
     const std::optional<GroundPlane> g0 = compact_ground(level, m0);
-    report.coarse_gap = std::min(scale, min_contact_gap(m0.prims, gather(x, m0.global), level.offset, scale,
+    report.coarse_gap = std::min(scale, min_contact_gap(m0.prims, gather_rows(x, m0.global), level.offset, scale,
                                                         g0 ? &*g0 : nullptr));
   }
   const double min_gap = settings.min_gap_fraction * report.coarse_gap;
@@ -370,7 +288,7 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     // patch are left to the exact local check (patch_valid), so only pairs reaching outside it count.
     std::vector<double> kept_gap(batch.size(), scale);
     {
-      const CompactMesh m = compact_mesh(level, present, faces);
+      const CompactMesh m = compact_mesh(level, faces);
       const std::optional<GroundPlane> gp = compact_ground(level, m);
       std::vector<int> patch_of(m.global.size(), -1), split_of_kept(m.global.size(), -1);
       for (std::size_t b = 0; b < batch.size(); ++b) {
@@ -379,7 +297,7 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
         for (const Tri& t : c.faces_after)
           for (int v : t) patch_of[static_cast<std::size_t>(m.compact[static_cast<std::size_t>(v)])] = static_cast<int>(b);
       }
-      for (const PairGap& p : pair_gaps(m.prims, gather(x, m.global), level.offset, scale, gp ? &*gp : nullptr))
+      for (const PairGap& p : pair_gaps(m.prims, gather_rows(x, m.global), level.offset, scale, gp ? &*gp : nullptr))
         for (int v : p.stencil) {
           if (v < 0) continue;
           const int b = split_of_kept[static_cast<std::size_t>(v)];
@@ -407,7 +325,6 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
         throw std::invalid_argument("safe upsampling: batches undo the collapses of vertex " + std::to_string(c.kept) +
                                     " out of order");
       --top;
-      present[static_cast<std::size_t>(c.removed)] = 1;
       x.row(c.removed) = x.row(c.kept);
       ++report.splits;
     }
@@ -441,9 +358,9 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     report.perturb_seconds += since(perturb_start);
     // 4. Additive advancement of every present vertex toward its target.
     const auto advance_start = Clock::now();
-    const CompactMesh m = compact_mesh(level, present, faces);
+    const CompactMesh m = compact_mesh(level, faces);
     const std::optional<GroundPlane> gp = compact_ground(level, m);
-    Positions xc = gather(x, m.global);
+    Positions xc = gather_rows(x, m.global);
     Positions aim(xc.rows(), 3), rest_now(xc.rows(), 3);  // the relaxation's rest shape is the intermediate one
     for (std::size_t k = 0; k < m.global.size(); ++k) {
       aim.row(static_cast<Eigen::Index>(k)) = intermediate_target(m.global[k]).transpose();
@@ -492,7 +409,7 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
         report.relax_seconds += since(relax_start);
       }
     }
-    scatter(xc, m.global, x);
+    scatter_rows(xc, m.global, x);
   }
 
   // Strain limits (PSQ 4.4.5): move only the vertices level l did not have.
@@ -500,8 +417,8 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
   // level's own solve (scene files only accept strain limits with a contact section anyway).
   const bool limited = level.contact && std::any_of(level.face_strain_limit.begin(), level.face_strain_limit.end(),
                                                     [](double s) { return s > 0.0; });
-  const CompactMesh m = compact_mesh(level, present, faces);
-  Positions xc = gather(x, m.global);
+  const CompactMesh m = compact_mesh(level, faces);
+  Positions xc = gather_rows(x, m.global);
   if (limited) {
     std::vector<char> old(static_cast<std::size_t>(nf), 0);
     for (int i : level.collapses.coarse_to_fine) old[static_cast<std::size_t>(i)] = 1;
@@ -531,7 +448,7 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     report.strain_seconds = since(strain_start);
     report.max_stretch_before = sr.max_stretch_before;
     report.max_stretch_after = max_stretch_of(m.prims.faces, m.rest, limit, xc);
-    scatter(xc, m.global, x);
+    scatter_rows(xc, m.global, x);
   }
   if (level.contact) {
     const std::optional<GroundPlane> gp = compact_ground(level, m);

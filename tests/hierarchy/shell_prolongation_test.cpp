@@ -334,6 +334,28 @@ TEST(ShellProlongation, RigidMotionEquivariantAtDeformedStates) {
   }
 }
 
+TEST(ShellProlongation, VertexRotationsAreRotationsCarryingTheRestOffsetsToTheOffsets) {
+  int checked = 0;
+  for (const Hierarchy2& h : {sphere(), holed_sheet(), flat_sheet()}) {
+    const ShellProlongation P = make_prolongation(h);
+    // Rest offsets d_i = fine rest - U coarse rest; a(X) = Q_i d_i at any state, Q_i = I at rest.
+    const Positions d = h.fine.V - P.apply_linear(h.coarse.V);
+    for (const Positions& X : {h.coarse.V, stretch_and_jitter(h.coarse.V, 5)}) {
+      const std::vector<Mat3> Q = P.vertex_rotations(X);
+      const Positions A = P.offsets(X);
+      ASSERT_EQ(static_cast<int>(Q.size()), h.fine.num_vertices());
+      for (int i = 0; i < h.fine.num_vertices(); ++i) {
+        EXPECT_LT((Q[i].transpose() * Q[i] - Mat3::Identity()).cwiseAbs().maxCoeff(), 1e-13);
+        EXPECT_NEAR(Q[i].determinant(), 1.0, 1e-13);
+        EXPECT_LT((Q[i] * d.row(i).transpose() - A.row(i).transpose()).norm(), 1e-13);
+        ++checked;
+      }
+    }
+    for (const Mat3& Q : P.vertex_rotations(h.coarse.V)) EXPECT_LT((Q - Mat3::Identity()).cwiseAbs().maxCoeff(), 1e-13);
+  }
+  EXPECT_GT(checked, 0);
+}
+
 TEST(ShellProlongation, UHasAtMostThreeNonZerosPerRowSummingToOneOnTheLocatedFace) {
   for (const Hierarchy2& h : {flat_sheet(), sphere(), cylinder(), holed_sheet()}) {
     const ShellProlongation P = make_prolongation(h);
