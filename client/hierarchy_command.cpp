@@ -73,8 +73,11 @@ int hierarchy(const HierarchyArgs& args) {
               reused ? "from" : "->", args.out.c_str(), seconds);
   for (size_t l = 0; l < report.size(); ++l) {
     const HierarchyLevelReport& r = report[l];
-    std::printf("level %zu: %d vertices, %d triangles, %.3f s, rest prolongation error %.3g m\n", l, r.vertices,
-                r.triangles, r.build_seconds, r.rest_prolongation_error);
+    // A reused hierarchy was not built here: no build time to show.
+    char built[32] = "cached";
+    if (!reused) std::snprintf(built, sizeof built, "%.3f s", r.build_seconds);
+    std::printf("level %zu: %d vertices, %d triangles, %s, rest prolongation error %.3g m\n", l, r.vertices,
+                r.triangles, built, r.rest_prolongation_error);
   }
   return 0;
 }
