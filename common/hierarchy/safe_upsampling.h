@@ -88,9 +88,9 @@ struct UpsamplingReport {
   double max_stretch_before = 0.0;  // largest sigma_max over limited faces before / after the
   double max_stretch_after = 0.0;   // strain-limit relaxation (0 without limits)
   double seconds = 0.0;             // total wall time, s; split into:
-  double perturb_seconds = 0.0;     // topology updates and safe perturbations
-  double advance_seconds = 0.0;     // gap measurements and additive advancement
-  double relax_seconds = 0.0;       // gap / shape relaxations
+  double perturb_seconds = 0.0;     // gap measurements, topology updates and safe perturbations
+  double advance_seconds = 0.0;     // additive advancement
+  double relax_seconds = 0.0;       // finding too-close pairs and bad triangles, and relaxing them
   double strain_seconds = 0.0;      // strain-limit relaxation
 };
 

@@ -247,12 +247,26 @@ Positions ShellProlongation::offsets(const Positions& Xc) const {
 }
 
 std::vector<Mat3> ShellProlongation::vertex_rotations(const Positions& Xc) const {
+  return vertex_maps(Xc, false);
+}
+
+std::vector<Mat3> ShellProlongation::vertex_deformations(const Positions& Xc) const {
+  return vertex_maps(Xc, true);
+}
+
+std::vector<Mat3> ShellProlongation::vertex_maps(const Positions& Xc, bool stretch) const {
   check_coarse_size(Xc, "vertex_rotations");
   std::vector<Mat3> Q(coarse_faces_.rows(), Mat3::Identity());
   for (int f : used_faces_) {
     const DeformedFace d = deform_face(Xc, coarse_faces_, f, bbar_inv_[f]);
+    Mat32 in_plane = d.polar.R;
+    if (stretch) {
+      Mat32 D;
+      D << d.D1, d.D2;
+      in_plane = D * bbar_inv_[f];  // F: rest-frame coordinates -> deformed vectors
+    }
     Mat3 deformed;
-    deformed << d.polar.R, d.n;
+    deformed << in_plane, d.n;
     Q[f] = deformed * rest_frames_[f].transpose();
   }
   std::vector<Mat3> out(num_fine());

@@ -122,6 +122,10 @@ class ShellProlongation {
   // offset (det Q_i = +1; identity at the rest shape). Safe upsampling uses it to carry rest-space
   // displacements near vertex i into the deformed shape. Throws DegenerateProlongationTriangle.
   std::vector<Mat3> vertex_rotations(const Positions& Xc) const;
+  // The same with the in-plane stretch kept: A_i = [F_f, n_f] [ebar, nbar x ebar, nbar]^T, F_f the
+  // coarse face's deformation gradient (3x2). Carries rest displacements tangent to the surface as
+  // the surface is stretched (identity at rest). Throws DegenerateProlongationTriangle.
+  std::vector<Mat3> vertex_deformations(const Positions& Xc) const;
   // Frozen-offset prolongation U Xc + frozen_offsets (frozen_offsets (nf, 3) m, e.g. offsets(Xc0)).
   Positions apply_frozen(const Positions& Xc, const Positions& frozen_offsets) const;
 
@@ -135,6 +139,7 @@ class ShellProlongation {
 
  private:
   void check_coarse_size(const Positions& Xc, const char* what) const;
+  std::vector<Mat3> vertex_maps(const Positions& Xc, bool stretch) const;
 
   int num_coarse_ = 0;
   Faces coarse_faces_;

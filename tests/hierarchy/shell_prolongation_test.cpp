@@ -30,6 +30,8 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include "geometry/shapes.h"
 #include "geometry/topology.h"
 #include "hierarchy/decimation.h"
@@ -352,6 +354,26 @@ TEST(ShellProlongation, VertexRotationsAreRotationsCarryingTheRestOffsetsToTheOf
       }
     }
     for (const Mat3& Q : P.vertex_rotations(h.coarse.V)) EXPECT_LT((Q - Mat3::Identity()).cwiseAbs().maxCoeff(), 1e-13);
+  }
+  EXPECT_GT(checked, 0);
+}
+
+TEST(ShellProlongation, VertexDeformationsAreIdentityAtRestAndScaleWithAUniformlyScaledShape) {
+  int checked = 0;
+  for (const Hierarchy2& h : {sphere(), flat_sheet()}) {
+    const ShellProlongation P = make_prolongation(h);
+    for (const Mat3& A : P.vertex_deformations(h.coarse.V)) EXPECT_LT((A - Mat3::Identity()).cwiseAbs().maxCoeff(), 1e-13);
+    // Scaled by 2 about the origin: tangent directions double, the unit normal stays unit.
+    const std::vector<Mat3> A = P.vertex_deformations(2.0 * h.coarse.V);
+    const std::vector<Mat3> Q = P.vertex_rotations(2.0 * h.coarse.V);
+    for (int i = 0; i < h.fine.num_vertices(); ++i) {
+      // A = Q diag(2, 2, 1) in the rest frame, so A^T A has eigenvalues 4, 4, 1.
+      Eigen::SelfAdjointEigenSolver<Mat3> eig(A[i].transpose() * A[i]);
+      EXPECT_NEAR(eig.eigenvalues()[0], 1.0, 1e-12);
+      EXPECT_NEAR(eig.eigenvalues()[1], 4.0, 1e-12);
+      EXPECT_NEAR(eig.eigenvalues()[2], 4.0, 1e-12);
+      ++checked;
+    }
   }
   EXPECT_GT(checked, 0);
 }
