@@ -241,6 +241,9 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
                                c2f[static_cast<std::size_t>(level.coarse_faces(f, 2))]));
   }
 
+  // The compact mesh of the current faces. A batch's mesh after its splits is the next batch's mesh
+  // before them (advancement and relaxation move vertices, not faces), so each is built once.
+  std::optional<CompactMesh> current;
   if (!level.contact) {
     // Nothing can intersect: the upsampled state is the prolongation itself, on level l+1's mesh.
     faces.clear();
@@ -248,10 +251,10 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
       faces.insert(canonical_tri(level.fine.F(f, 0), level.fine.F(f, 1), level.fine.F(f, 2)));
     x = target;
   } else {
-    CompactMesh m0 = compact_mesh(level, faces);
-    const std::optional<GroundPlane> g0 = compact_ground(level, m0);
-    report.coarse_gap = std::min(scale, min_contact_gap(m0.prims, gather_rows(x, m0.global), level.offset, scale,
-                                                        g0 ? &*g0 : nullptr));
+    current = compact_mesh(level, faces);
+    const std::optional<GroundPlane> g0 = compact_ground(level, *current);
+    report.coarse_gap = std::min(scale, min_contact_gap(current->prims, gather_rows(x, current->global), level.offset,
+                                                        scale, g0 ? &*g0 : nullptr));
   }
   const double min_gap = settings.min_gap_fraction * report.coarse_gap;
   const double g_ref = report.coarse_gap > 0.0 ? report.coarse_gap : scale;
@@ -294,7 +297,7 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     const double reach = 0.1 * scale;
     std::vector<double> kept_gap(batch.size(), reach);
     {
-      const CompactMesh m = compact_mesh(level, faces);
+      const CompactMesh& m = *current;
       const std::optional<GroundPlane> gp = compact_ground(level, m);
       std::vector<int> patch_of(m.global.size(), -1), split_of_kept(m.global.size(), -1);
       for (std::size_t b = 0; b < batch.size(); ++b) {
@@ -363,7 +366,8 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     report.perturb_seconds += since(perturb_start);
     // 4. Additive advancement of every present vertex toward its target.
     const auto advance_start = Clock::now();
-    const CompactMesh m = compact_mesh(level, faces);
+    current = compact_mesh(level, faces);
+    const CompactMesh& m = *current;
     const std::optional<GroundPlane> gp = compact_ground(level, m);
     Positions xc = gather_rows(x, m.global);
     Positions aim(xc.rows(), 3), rest_now(xc.rows(), 3);  // the relaxation's rest shape is the intermediate one
