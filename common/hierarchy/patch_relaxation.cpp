@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "physics/contact/barrier_potential.h"
+#include "physics/contact/ground_barrier.h"
 #include "physics/contact/distance.h"
 #include "physics/inertia.h"
 #include "physics/membrane_neo_hookean.h"
@@ -59,6 +60,13 @@ int check_mesh(const RelaxationMesh& mesh, const Positions& x, const char* who) 
   const Faces& F = mesh.primitives->faces;
   if (F.size() > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= n))
     throw std::invalid_argument(w + ": a face indexes a missing vertex");
+  if (const GroundPlane* g = mesh.ground) {
+    if (static_cast<int>(g->vertex_collides.size()) != n)
+      throw std::invalid_argument(w + ": ground.vertex_collides needs one entry per vertex");
+    for (int v = 0; v < n; ++v)
+      if (g->vertex_collides[static_cast<std::size_t>(v)] && !(g->normal.dot(x.row(v).transpose()) - g->height > mesh.offset))
+        throw std::invalid_argument(w + ": vertex " + std::to_string(v) + " starts within the offset of the ground");
+  }
   return n;
 }
 
@@ -143,11 +151,15 @@ Setup make_setup(const RelaxationMesh& mesh, int n, std::vector<char> mask, cons
   return s;
 }
 
-// The potential: anchor + membrane (faces grouped by weight) + barrier. Returns the barrier so the
-// caller can change kappa.
+// The potential: anchor + membrane (faces grouped by weight) + barrier. The anchor pulls toward
+// `anchor_at` (stacked, m). The barrier contacts at the mesh's offset, except for the pairs that
+// start within it (a freshly split edge is shorter than the offset), which contact at distance 0
+// (BarrierPotential::set_thin_pairs): the barrier is then finite at the start, and no pair that
+// starts beyond the offset can be pressed into it. dhat: the activation distance from 0 (m, >
+// offset), the same for both kinds of pair. Returns the barrier so the caller can change kappa.
 BarrierPotential* build_potential(const Setup& s, const std::map<double, std::vector<int>>& weighted_faces,
-                                  double dhat, double kappa, double anchor, IncrementalPotential& ip,
-                                  double barrier_offset = 0.0) {
+                                  double dhat, double kappa, double anchor, const Eigen::VectorXd& anchor_at,
+                                  IncrementalPotential& ip) {
   ip = IncrementalPotential();
   ip.add_term(std::make_unique<InertiaTerm>(Eigen::VectorXd::Constant(3 * s.n, anchor * kMembraneScale)));
   for (const auto& [weight, faces] : weighted_faces) {
@@ -158,35 +170,33 @@ BarrierPotential* build_potential(const Setup& s, const std::map<double, std::ve
         F, *s.mesh->rest, MembraneMaterialParams::from(weight * kYoungs, kPoisson, kThickness)));
   }
   ContactSettings cs;
-  cs.dhat = dhat - barrier_offset;  // activation measured from the barrier's own offset
-  cs.offset = barrier_offset;       // see barrier_offset_for
+  cs.dhat = dhat - s.mesh->offset;  // activation measured from the offset
+  cs.offset = s.mesh->offset;
   cs.kappa = kappa;
   auto barrier = std::make_unique<BarrierPotential>(*s.mesh->primitives, *s.mesh->rest, cs);
+  barrier->set_thin_pairs(barrier->pairs_within_offset(s.start));
   BarrierPotential* raw = barrier.get();
   ip.add_term(std::move(barrier));
+  if (const GroundPlane* g = s.mesh->ground) {
+    std::vector<int> colliding;
+    for (int v = 0; v < s.n; ++v)
+      if (g->vertex_collides[static_cast<std::size_t>(v)]) colliding.push_back(v);
+    ip.add_term(std::make_unique<GroundBarrier>(std::move(colliding), g->normal, g->height, cs, 0.0));
+  }
 
   std::vector<char> fixed(static_cast<std::size_t>(3 * s.n), 1);
   for (int v = 0; v < s.n; ++v)
     if (s.free_mask[static_cast<std::size_t>(v)]) fixed[3 * v] = fixed[3 * v + 1] = fixed[3 * v + 2] = 0;
   ip.set_fixed_dofs(std::move(fixed));
 
-  // h = 1 s and zero velocity: x_hat = start, the anchor is (mass / 2) |x - start|^2.
+  // h = 1 s and zero velocity: x_hat = anchor_at, the anchor is (mass / 2) |x - anchor_at|^2.
   StepStart step;
   step.h = 1.0;
-  step.x = &s.start;
+  step.x = &anchor_at;
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(s.start.size());
   step.v = &zero;
   ip.begin_step(step);  // InertiaTerm keeps its own copy of x_hat, so `zero` may go out of scope
   return raw;
-}
-
-// The barrier's offset: the real contact offset when every pair starts beyond it (then the barrier
-// also stops the membrane from pressing pairs INTO the offset: with offset 0 a pair just beyond
-// the offset sits where the barrier is ~0, and the solve pushed such pairs deep inside it), else 0
-// (finite for every d > 0, so a start with pairs below the offset stays admissible; header).
-double barrier_offset_for(const ContactPrimitives& prims, const Positions& x, double offset, double dhat) {
-  if (!(offset > 0.0)) return 0.0;
-  return relaxation_min_gap(prims, x, 0.0, dhat) > offset ? offset : 0.0;
 }
 
 NewtonSettings newton_settings(const Setup& s, double dhat, int iterations) {
@@ -218,10 +228,37 @@ void write_free(const Setup& s, const Eigen::VectorXd& xs, Positions& x) {
     if (s.free_mask[static_cast<std::size_t>(v)]) x.row(v) = xs.segment<3>(3 * v).transpose();
 }
 
+// Records every accepted Newton iterate into `iterates` (whole positions: `x` with the free rows
+// replaced), if given.
+void record_iterates(const Setup& s, const Positions& x, std::vector<Positions>* iterates, NewtonSettings& ns) {
+  if (!iterates) return;
+  iterates->clear();
+  ns.after_iteration = [&s, x, iterates](const Eigen::VectorXd& xs) {
+    Positions step = x;
+    write_free(s, xs, step);
+    iterates->push_back(std::move(step));
+    return false;
+  };
+}
+
 // Refuses a start the barrier cannot evaluate: a pair (any, free or not) at d <= 0.
 void check_start_contact(const ContactPrimitives& prims, const Positions& x, double reach, const char* who) {
   if (!(relaxation_min_gap(prims, x, 0.0, reach) > 0.0))
     throw std::invalid_argument(std::string(who) + ": the start has a touching or intersecting contact pair (d <= 0)");
+}
+
+// The start shared by relax_strain and relax_toward (a barrier of fixed reach contact_gap beyond
+// the offset): checks the reach and the start, builds the setup, fills the "before" measures.
+Setup begin_fixed_barrier_solve(const RelaxationMesh& mesh, int n, std::vector<char> mask, const Positions& x,
+                                double contact_gap, const char* who, RelaxationReport& report) {
+  if (!(contact_gap > 0.0) || !std::isfinite(contact_gap))
+    throw std::invalid_argument(std::string(who) + ": contact_gap must be finite and > 0 (m)");
+  check_start_contact(*mesh.primitives, x, mesh.offset + contact_gap, who);
+  Setup s = make_setup(mesh, n, std::move(mask), x);
+  report.skipped_faces = s.skipped_faces;
+  report.min_gap_before = relaxation_min_gap(*mesh.primitives, x, mesh.offset, contact_gap, s.free_mask);
+  report.min_relative_quality_before = min_relative_quality(s, x);
+  return s;
 }
 
 }  // namespace
@@ -267,7 +304,7 @@ double relaxation_min_gap(const ContactPrimitives& primitives, const Positions& 
 }
 
 RelaxationReport relax_gaps(const RelaxationMesh& mesh, const std::vector<int>& free_vertices,
-                            const GapRelaxationSettings& settings, Positions& x) {
+                            const GapRelaxationSettings& settings, Positions& x, std::vector<Positions>* iterates) {
   const char* who = "relax_gaps";
   const int n = check_mesh(mesh, x, who);
   std::vector<char> mask = free_mask_of(free_vertices, n, who);
@@ -293,12 +330,12 @@ RelaxationReport relax_gaps(const RelaxationMesh& mesh, const std::vector<int>& 
   }
 
   IncrementalPotential ip;
-  const double barrier_offset = barrier_offset_for(prims, x, mesh.offset, dhat);
-  const double reach_b = dhat - barrier_offset;
+  const double reach_b = dhat - mesh.offset;
   double kappa = kStartKappa * kMembraneScale / (reach_b * reach_b);  // J/m^4 (header: "Starting kappa")
   BarrierPotential* barrier =
-      build_potential(s, {{1.0, s.membrane_faces}}, dhat, kappa, settings.anchor_stiffness, ip, barrier_offset);
-  const NewtonSettings ns = newton_settings(s, dhat, settings.newton_iterations_per_round);
+      build_potential(s, {{1.0, s.membrane_faces}}, dhat, kappa, settings.anchor_stiffness, s.start, ip);
+  NewtonSettings ns = newton_settings(s, dhat, settings.newton_iterations_per_round);
+  record_iterates(s, x, iterates, ns);
   HessianAssembly hessian;
   CholmodSolver solver;
   Eigen::VectorXd xs = s.start;
@@ -321,7 +358,7 @@ RelaxationReport relax_gaps(const RelaxationMesh& mesh, const std::vector<int>& 
 
 RelaxationReport relax_strain(const RelaxationMesh& mesh, const std::vector<int>& free_vertices,
                               const std::vector<double>& face_limit, const StrainRelaxationSettings& settings,
-                              Positions& x) {
+                              Positions& x, std::vector<Positions>* iterates) {
   const char* who = "relax_strain";
   const int n = check_mesh(mesh, x, who);
   std::vector<char> mask = free_mask_of(free_vertices, n, who);
@@ -334,18 +371,10 @@ RelaxationReport relax_strain(const RelaxationMesh& mesh, const std::vector<int>
       throw std::invalid_argument("relax_strain: a face limit must be 0 (none) or a finite value > 1");
   if (!(settings.target_fraction >= 0.0 && settings.target_fraction < 1.0))
     throw std::invalid_argument("relax_strain: target_fraction must lie in [0, 1)");
-  if (!(settings.contact_gap > 0.0) || !std::isfinite(settings.contact_gap))
-    throw std::invalid_argument("relax_strain: contact_gap must be finite and > 0 (m)");
   check_counts(settings.max_rounds, settings.newton_iterations_per_round, settings.anchor_stiffness, who);
-
   const double dhat = mesh.offset + settings.contact_gap;
-  check_start_contact(prims, x, dhat, who);
-
   RelaxationReport report;
-  const Setup s = make_setup(mesh, n, std::move(mask), x);
-  report.skipped_faces = s.skipped_faces;
-  report.min_gap_before = relaxation_min_gap(prims, x, mesh.offset, settings.contact_gap, s.free_mask);
-  report.min_relative_quality_before = min_relative_quality(s, x);
+  const Setup s = begin_fixed_barrier_solve(mesh, n, std::move(mask), x, settings.contact_gap, who, report);
 
   // Limited faces with a usable rest triangle; those with a degenerate rest have no stretch.
   struct Limited {
@@ -397,17 +426,17 @@ RelaxationReport relax_strain(const RelaxationMesh& mesh, const std::vector<int>
   // Membrane weight per face (powers of two, so faces group into few terms).
   std::map<int, double> weight;
   for (int f : s.membrane_faces) weight[f] = 1.0;
-  const NewtonSettings ns = newton_settings(s, dhat, settings.newton_iterations_per_round);
+  NewtonSettings ns = newton_settings(s, dhat, settings.newton_iterations_per_round);
+  record_iterates(s, x, iterates, ns);
   HessianAssembly hessian;
   CholmodSolver solver;
   Eigen::VectorXd xs = s.start;
-  const double barrier_offset = barrier_offset_for(prims, x, mesh.offset, dhat);
-  const double kappa = kMembraneScale / ((dhat - barrier_offset) * (dhat - barrier_offset));
+  const double kappa = kMembraneScale / (settings.contact_gap * settings.contact_gap);
   for (int round = 1; round <= settings.max_rounds; ++round) {
     std::map<double, std::vector<int>> groups;
     for (const auto& [f, w] : weight) groups[w].push_back(f);
     IncrementalPotential ip;
-    build_potential(s, groups, dhat, kappa, settings.anchor_stiffness, ip, barrier_offset);
+    build_potential(s, groups, dhat, kappa, settings.anchor_stiffness, s.start, ip);
     const NewtonReport nr = newton_minimize(ip, xs, ns, hessian, solver);
     report.rounds = round;
     report.newton_iterations += nr.iterations;
@@ -426,6 +455,47 @@ RelaxationReport relax_strain(const RelaxationMesh& mesh, const std::vector<int>
   report.satisfied = met;
   report.min_gap_after = relaxation_min_gap(prims, x, mesh.offset, settings.contact_gap, s.free_mask);
   report.min_relative_quality_after = min_relative_quality(s, x);
+  return report;
+}
+
+RelaxationReport relax_toward(const RelaxationMesh& mesh, const std::vector<int>& free_vertices, const Positions& aim,
+                              const TargetRelaxationSettings& settings, Positions& x, std::vector<Positions>* iterates) {
+  const char* who = "relax_toward";
+  const int n = check_mesh(mesh, x, who);
+  std::vector<char> mask = free_mask_of(free_vertices, n, who);
+  if (aim.rows() != n || aim.cols() != 3 || !aim.allFinite())
+    throw std::invalid_argument("relax_toward: aim must be finite, one row per vertex");
+  if (!(settings.target_stiffness > 0.0) || !std::isfinite(settings.target_stiffness))
+    throw std::invalid_argument("relax_toward: target_stiffness must be finite and > 0");
+  check_counts(1, settings.newton_iterations, 0.0, who);
+  const ContactPrimitives& prims = *mesh.primitives;
+  const double dhat = mesh.offset + settings.contact_gap;
+  RelaxationReport report;
+  const Setup s = begin_fixed_barrier_solve(mesh, n, std::move(mask), x, settings.contact_gap, who, report);
+  const auto max_distance = [&](const Positions& V) {
+    double d = 0.0;
+    for (int v = 0; v < n; ++v)
+      if (s.free_mask[static_cast<std::size_t>(v)]) d = std::max(d, (V.row(v) - aim.row(v)).norm());
+    return d;
+  };
+  report.max_target_distance_before = max_distance(x);
+
+  IncrementalPotential ip;
+  const double kappa = kMembraneScale / (settings.contact_gap * settings.contact_gap);
+  build_potential(s, {{1.0, s.membrane_faces}}, dhat, kappa, settings.target_stiffness, stacked(aim), ip);
+  NewtonSettings ns = newton_settings(s, dhat, settings.newton_iterations);
+  record_iterates(s, x, iterates, ns);
+  HessianAssembly hessian;
+  CholmodSolver solver;
+  Eigen::VectorXd xs = s.start;
+  const NewtonReport nr = newton_minimize(ip, xs, ns, hessian, solver);
+  report.rounds = 1;
+  report.newton_iterations = nr.iterations;
+  write_free(s, xs, x);
+  report.satisfied = nr.converged;
+  report.min_gap_after = relaxation_min_gap(prims, x, mesh.offset, settings.contact_gap, s.free_mask);
+  report.min_relative_quality_after = min_relative_quality(s, x);
+  report.max_target_distance_after = max_distance(x);
   return report;
 }
 

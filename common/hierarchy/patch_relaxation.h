@@ -35,12 +35,16 @@
 //    are all rest-shaped has none at all): without it the Newton system is singular. Uniform (not
 //    lumped by area) so that it stays commensurate with the size-independent membrane stiffness.
 //    Weak (default 1e-2 of the membrane) so it only regularises.
-//  * barrier: BarrierPotential over all of the mesh's contact primitives with barrier offset 0 and
-//    activation dhat_b (see each solve). Offset 0, not the contact thickness: the barrier is then
-//    finite for every intersection-free state (d > 0), so a start where pairs sit *below* the
-//    thickness offset is still admissible, and the barrier pushes those pairs out through the offset.
-//    CCD (ccd_ratio 0.9) keeps every iterate at d > 0. Pairs are the broad phase's (pairs sharing a
-//    vertex excluded; pairs within one object only with its self-contact flag on).
+//  * barrier: BarrierPotential over all of the mesh's contact primitives at the contact offset xi,
+//    activation dhat_b (see each solve), plus the ground (RelaxationMesh::ground) with the same
+//    offset, activation and stiffness. Pairs that START within the offset (a freshly split edge is
+//    shorter than the shell thickness) contact at distance 0 instead (BarrierPotential thin pairs):
+//    the barrier is then finite at every intersection-free start and pushes those pairs out through
+//    the offset, while no pair that starts beyond the offset can be pressed into it (an earlier
+//    version used offset 0 for the whole barrier whenever one pair started inside, and the membrane
+//    then pressed pairs resting on a collider deep into the offset). CCD (ccd_ratio 0.9) keeps every
+//    iterate intersection-free. Pairs are the broad phase's (pairs sharing a vertex excluded; pairs
+//    within one object only with its self-contact flag on).
 //
 // Cost: the system has 3n dofs (fixed dofs are identity rows) and the broad phase / CCD run over the
 // whole mesh, so each iteration is O(n); pass a submesh when n is large and the patch is small
@@ -49,11 +53,17 @@
 // Pairs and faces whose vertices are all fixed cannot change; the success tests below only look at
 // pairs (faces) with at least one free vertex.
 //
+// Path: each solve can return its accepted Newton iterates (`iterates`, whole positions, fixed rows
+// as passed, in order; the last is the result). Each step between them was capped by the barrier's
+// CCD, so a caller that solved on a submesh can follow the same piecewise-straight path in the
+// whole mesh, checking each segment against what the submesh left out.
+//
 // Deterministic: no randomness; the same input gives the same output.
 #include <limits>
 #include <vector>
 
 #include "geometry/mesh.h"
+#include "hierarchy/safe_advance.h"
 #include "physics/contact/broad_phase.h"
 
 namespace pd {
@@ -62,6 +72,10 @@ struct RelaxationMesh {
   const ContactPrimitives* primitives = nullptr;  // faces, edges, vertex_object, object_self_contact
   const Positions* rest = nullptr;  // rest positions of the same vertices (m): the membrane's rest shape
   double offset = 0.0;              // contact thickness xi (m, >= 0): contact happens at distance xi
+  // Optional analytic ground (vertex_collides per vertex), with the same offset, activation and
+  // stiffness as the mesh barrier (physics/contact/ground_barrier.h). Its colliding vertices must
+  // start above height + offset.
+  const GroundPlane* ground = nullptr;
 };
 
 struct GapRelaxationSettings {
@@ -84,6 +98,8 @@ struct RelaxationReport {
   // min over membrane faces of quality(x) / quality(rest), quality = 4 sqrt(3) area / sum |e|^2
   // (1 = same shape as at rest up to scale; -> 0 as a triangle is crushed).
   double min_relative_quality_before = 0.0, min_relative_quality_after = 0.0;
+  // relax_toward only: max over free vertices of |x_v - aim_v| (m).
+  double max_target_distance_before = 0.0, max_target_distance_after = 0.0;
   int skipped_faces = 0;       // faces with a free vertex left out of the membrane (see above)
   bool satisfied = false;      // the goal of the solve was met (see each function)
 };
@@ -119,7 +135,8 @@ struct RelaxationReport {
 // pair (an edge through a large triangle's interior) is not detected: the start must be
 // intersection-free (physics/contact/start_check.h checks it).
 RelaxationReport relax_gaps(const RelaxationMesh& mesh, const std::vector<int>& free_vertices,
-                            const GapRelaxationSettings& settings, Positions& x);
+                            const GapRelaxationSettings& settings, Positions& x,
+                            std::vector<Positions>* iterates = nullptr);
 
 struct StrainRelaxationSettings {
   double target_fraction = 1e-3;  // goal: sigma_max <= limit * (1 - target_fraction), in [0, 1)
@@ -138,8 +155,8 @@ struct StrainRelaxationSettings {
 //
 // face_limit: one entry per face of mesh.primitives->faces, > 1 = limit on sigma_max (dimensionless),
 // 0 = no limit for that face. The energy is E(x) above (barrier with dhat_b = offset + contact_gap
-// and kappa = (E t) / dhat_b^2, fixed). Round k minimises it with the membrane weight of each face
-// multiplied by w_f, w_f starting at 1 and doubled every round in which face f (limited, with a free
+// and kappa = (E t) / contact_gap^2, fixed: the barrier's reach beyond the offset sets its scale).
+// Round k minimises it with the membrane weight of each face multiplied by w_f, w_f starting at 1 and doubled every round in which face f (limited, with a free
 // vertex) ends above its goal (iteratively reweighted membrane): the membrane alone spreads stretch
 // over the free vertices, and the growing weights trade stretch away from the violating faces to
 // their neighbours that are under their limits. Why not the StrainLimitTerm barrier: it is infinite
@@ -153,7 +170,30 @@ struct StrainRelaxationSettings {
 // an entry that is not 0 and not a finite value > 1, target_fraction outside [0, 1), contact_gap <= 0.
 RelaxationReport relax_strain(const RelaxationMesh& mesh, const std::vector<int>& free_vertices,
                               const std::vector<double>& face_limit, const StrainRelaxationSettings& settings,
-                              Positions& x);
+                              Positions& x, std::vector<Positions>* iterates = nullptr);
+
+struct TargetRelaxationSettings {
+  // Barrier activation gap beyond the offset (m, > 0), as StrainRelaxationSettings::contact_gap.
+  double contact_gap = 1e-4;
+  // Pull of each free vertex toward its aim, in units of E * thickness (> 0). 1: as stiff as the
+  // membrane, so a vertex goes where its aim is unless contact or its triangles' shape hold it back.
+  double target_stiffness = 1.0;
+  int newton_iterations = 50;  // (>= 1)
+};
+
+// Moves the free vertices toward aim (one row per vertex, m) as far as contact allows, sliding
+// along it: Newton on E(x) above with the anchor at `aim` (stiffness target_stiffness instead of
+// anchor_stiffness), barrier with dhat_b = offset + contact_gap and kappa = (E t) / contact_gap^2.
+// Why: the safe advancement (safe_advance.h) is physics-oblivious, and a vertex whose straight path
+// runs into a collider stops there for good, even when its aim lies beside the collider or beyond
+// one of its edges; here the barrier turns the pull into sliding, so cloth wraps around a sharp edge
+// the way the level's own solve would move it. Every iterate is intersection-free (CCD-capped line
+// search). satisfied = Newton converged (step below tolerance). Throws std::invalid_argument
+// as relax_gaps, and for an aim of the wrong size or not finite, a non-positive contact_gap or
+// target_stiffness.
+RelaxationReport relax_toward(const RelaxationMesh& mesh, const std::vector<int>& free_vertices, const Positions& aim,
+                              const TargetRelaxationSettings& settings, Positions& x,
+                              std::vector<Positions>* iterates = nullptr);
 
 // ---- Helpers (exposed for tests and callers' diagnostics) ------------------------------------
 

@@ -11,6 +11,8 @@
 
 #include "hierarchy/contact_submesh.h"
 #include "hierarchy/patch_relaxation.h"
+#include "physics/contact/barrier_potential.h"
+#include "physics/contact/ground_barrier.h"
 #include "physics/contact/start_check.h"
 #include "physics/strain_limit.h"
 
@@ -149,16 +151,33 @@ std::vector<char> grow_by_faces(const Faces& F, const std::vector<char>& marked)
   return out;
 }
 
-// Gap relaxation of the free vertices (PSQ 4.4.3) on a submesh, applied to the whole mesh safely.
-// relax_gaps costs O(its mesh) per Newton iteration, and a batch's patches are a tiny part of the
-// mesh, so it runs on the faces within two rings of the free vertices plus every face with a vertex
-// within about 2 `scale` of one (the geometry they may meet). What it does not see (the rest
-// of the mesh, the ground) is then respected by carrying its result into the whole mesh with the
-// same safe advancement (from the current positions toward the relaxed ones): wherever the relaxed
-// motion would meet something outside the submesh, it stops there instead.
-void relax_patch(const ContactPrimitives& prims, const Positions& rest, const std::vector<int>& free,
-                 double offset, double min_gap, double gap, double scale, const GroundPlane* ground,
-                 Positions& x) {
+// The marked vertices of m (compact ids) and their one-ring, without the fixed ones: what a
+// relaxation may move.
+std::vector<int> movable_ring(const CompactMesh& m, const std::vector<char>& marked, const std::vector<char>& vertex_fixed) {
+  const std::vector<char> grown = grow_by_faces(m.prims.faces, marked);
+  std::vector<int> free;
+  for (std::size_t v = 0; v < grown.size(); ++v)
+    if (grown[v] && !vertex_fixed[static_cast<std::size_t>(m.global[v])]) free.push_back(static_cast<int>(v));
+  return free;
+}
+
+// The relaxations below cost O(their mesh) per Newton iteration, and a batch's patches are a tiny
+// part of the mesh, so they run on a submesh: the faces within two rings of the free vertices plus
+// every face with a vertex within about 2 `scale` of a free vertex or of a point in `also_near` (the
+// geometry they may meet). What the submesh does not hold (the rest of the mesh, the ground) is then
+// respected by carrying the result into the whole mesh with the same safe advancement: wherever
+// the relaxed motion would meet something outside the submesh, it stops there instead.
+struct PatchSubmesh {
+  ContactSubmesh sub;
+  Positions rest, x;      // of the submesh's vertices
+  std::vector<int> free;  // submesh ids
+  std::optional<GroundPlane> ground;  // vertex_collides per submesh vertex
+  RelaxationMesh mesh(double offset) const { return {&sub.prims, &rest, offset, ground ? &*ground : nullptr}; }
+};
+
+PatchSubmesh patch_submesh(const ContactPrimitives& prims, const Positions& rest, const std::vector<int>& free,
+                           double scale, const Positions& x, const std::vector<Vec3>& also_near,
+                           const GroundPlane* ground) {
   const std::size_t n = static_cast<std::size_t>(x.rows());
   std::vector<char> region(n, 0);
   for (int v : free) region[static_cast<std::size_t>(v)] = 1;
@@ -172,6 +191,7 @@ void relax_patch(const ContactPrimitives& prims, const Positions& rest, const st
   };
   std::set<std::array<long long, 3>> occupied;
   for (int v : free) occupied.insert(cell(row(x, v)));
+  for (const Vec3& p : also_near) occupied.insert(cell(p));
   auto near_patch = [&](const Vec3& p) {
     const auto c = cell(p);
     for (long long i = -1; i <= 1; ++i)
@@ -191,19 +211,90 @@ void relax_patch(const ContactPrimitives& prims, const Positions& rest, const st
     }
   Faces F(static_cast<Eigen::Index>(taken.size()), 3);
   for (std::size_t k = 0; k < taken.size(); ++k) F.row(static_cast<Eigen::Index>(k)) = prims.faces.row(taken[k]);
-  const ContactSubmesh sub = contact_submesh(F, prims.vertex_object, prims.object_self_contact);
-  const Positions sub_rest = gather_rows(rest, sub.vertices);
-  Positions sub_x = gather_rows(x, sub.vertices);
-  std::vector<int> sub_free;
-  for (int v : free) sub_free.push_back(sub.local(v));
+  PatchSubmesh p;
+  p.sub = contact_submesh(F, prims.vertex_object, prims.object_self_contact);
+  p.rest = gather_rows(rest, p.sub.vertices);
+  p.x = gather_rows(x, p.sub.vertices);
+  for (int v : free) p.free.push_back(p.sub.local(v));
+  if (ground) {
+    p.ground = GroundPlane{ground->normal, ground->height, {}};
+    for (int v : p.sub.vertices) p.ground->vertex_collides.push_back(ground->vertex_collides[static_cast<std::size_t>(v)]);
+  }
+  return p;
+}
+
+// Moves x along a path of waypoints (each a whole-mesh position set), one straight segment at a
+// time, each capped by CCD over the whole mesh and the ground (the barrier's step cap: thickness =
+// the offset for pairs beyond it, 0 for pairs within it at the start; every approach keeps 10% of
+// its gap). A segment cut short (ACCD is conservative, so even a certified segment can be cut
+// slightly) leaves the next one to start from there, CCD-checked the same way. Why not the safe advancement: its ratio
+// rules (keep 99.9% of a close pair's gap, stop after a pair turns a vertex) are made for motions
+// nobody has checked, and they stopped relaxed patches centimetres short of a path that the
+// relaxation's own CCD-capped line search had already certified on the submesh.
+void follow_path(const ContactPrimitives& prims, const Positions& rest, double offset, const GroundPlane* ground,
+                 const std::vector<Positions>& path, Positions& x) {
+  if (path.empty()) return;
+  ContactSettings cs;
+  cs.dhat = 1.0;  // unused: only the step cap is asked for
+  cs.offset = offset;
+  BarrierPotential mesh(prims, rest, cs);
+  Eigen::VectorXd xs = stacked(x);
+  mesh.set_thin_pairs(mesh.pairs_within_offset(xs));
+  std::optional<GroundBarrier> floor;
+  if (ground) {
+    std::vector<int> colliding;
+    for (std::size_t v = 0; v < ground->vertex_collides.size(); ++v)
+      if (ground->vertex_collides[v]) colliding.push_back(static_cast<int>(v));
+    floor.emplace(std::move(colliding), ground->normal, ground->height, cs, 0.0);
+  }
+  for (const Positions& waypoint : path) {
+    const Eigen::VectorXd dx = stacked(waypoint) - xs;
+    double alpha = mesh.max_step(xs, dx);
+    if (floor) alpha = std::min(alpha, floor->max_step(xs, dx));
+    xs += alpha * dx;  // a segment cut short: the next one starts from here, also checked
+  }
+  x = as_rows(xs);
+}
+
+// follow_path for a path of submesh positions (rows = p.sub.vertices).
+void follow_submesh_path(const ContactPrimitives& prims, const Positions& rest, double offset, const GroundPlane* ground,
+                         const PatchSubmesh& p, const std::vector<Positions>& sub_path, Positions& x) {
+  std::vector<Positions> path;
+  for (const Positions& waypoint : sub_path) {
+    path.push_back(x);
+    scatter_rows(waypoint, p.sub.vertices, path.back());
+  }
+  follow_path(prims, rest, offset, ground, path, x);
+}
+
+// Gap relaxation of the free vertices (PSQ 4.4.3) on a submesh, followed in the whole mesh.
+void relax_patch(const ContactPrimitives& prims, const Positions& rest, const std::vector<int>& free,
+                 double offset, double min_gap, double scale, const GroundPlane* ground, Positions& x) {
+  PatchSubmesh p = patch_submesh(prims, rest, free, scale, x, {}, ground);
   GapRelaxationSettings settings;
   settings.min_gap = min_gap;
   settings.max_stiffness_rounds = 8;  // 128x the starting stiffness; what is left is reported
-  relax_gaps(RelaxationMesh{&sub.prims, &sub_rest, offset}, sub_free, settings, sub_x);
+  std::vector<Positions> sub_path;
+  relax_gaps(p.mesh(offset), p.free, settings, p.x, &sub_path);
+  follow_submesh_path(prims, rest, offset, ground, p, sub_path, x);
+}
 
-  Positions aim = x;
-  scatter_rows(sub_x, sub.vertices, aim);
-  advance_toward_targets(prims, offset, gap, ground, aim, x);
+// Splits that did not open: the safe advancement moves every vertex on a straight line, and a
+// vertex whose line runs into another primitive stops there for good (PSQ's Algorithm 3 stops it
+// too), even when its aim lies beside that primitive. Their patches are pulled toward their aims
+// on a submesh (relax_toward: the barrier turns the pull into sliding), and the Newton iterates
+// are followed in the whole mesh. Returns the relaxation's report.
+RelaxationReport pull_toward_aims(const ContactPrimitives& prims, const Positions& rest, const std::vector<int>& free,
+                                  const Positions& aim, double offset, double scale, const GroundPlane* ground,
+                                  Positions& x) {
+  std::vector<Vec3> aims;
+  for (int v : free) aims.push_back(row(aim, v));
+  PatchSubmesh p = patch_submesh(prims, rest, free, scale, x, aims, ground);
+  const Positions sub_aim = gather_rows(aim, p.sub.vertices);
+  std::vector<Positions> sub_path;
+  const RelaxationReport r = relax_toward(p.mesh(offset), p.free, sub_aim, TargetRelaxationSettings{}, p.x, &sub_path);
+  follow_submesh_path(prims, rest, offset, ground, p, sub_path, x);
+  return r;
 }
 
 // Largest sigma_max over the faces with a limit (> 0) in `limit` (one per row of F), at x.
@@ -389,8 +480,28 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     report.close_events += adv.close_events;
     report.stopped_vertices += adv.stopped_vertices;
     report.redirections += adv.redirections;
-    // 5. Relax pairs left too close and badly shaped new triangles.
     const auto relax_start = Clock::now();
+    // 4b. Splits that did not open: the restored vertex is still nearer its kept vertex than half
+    // the distance between their aims (both in tight contact, their straight paths were blocked).
+    {
+      std::vector<char> lagging(m.global.size(), 0);
+      int unopened = 0;
+      for (int k : batch) {
+        const Collapse& c = records[static_cast<std::size_t>(k)];
+        const int r = m.compact[static_cast<std::size_t>(c.removed)], kk = m.compact[static_cast<std::size_t>(c.kept)];
+        const double want = (aim.row(r) - aim.row(kk)).norm();
+        if (!((xc.row(r) - xc.row(kk)).norm() < settings.unopened_fraction * want)) continue;
+        ++unopened;
+        for (const Tri& t : c.faces_before)
+          for (int v : t) lagging[static_cast<std::size_t>(m.compact[static_cast<std::size_t>(v)])] = 1;
+      }
+      report.unopened_splits += unopened;
+      const std::vector<int> free = unopened > 0 ? movable_ring(m, lagging, level.vertex_fixed) : std::vector<int>{};
+      if (!free.empty())
+        report.pull_newton_iterations +=
+            pull_toward_aims(m.prims, rest_now, free, aim, level.offset, scale, gp ? &*gp : nullptr, xc).newton_iterations;
+    }
+    // 5. Relax pairs left too close and badly shaped new triangles.
     std::vector<int> seeds;
     for (const auto& stencil : pairs_below_gap(m.prims, xc, level.offset, min_gap, gp ? &*gp : nullptr))
       for (int v : stencil)
@@ -404,16 +515,12 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
         if (q < settings.min_quality && q < 0.5 * q_rest) seeds.insert(seeds.end(), {a, b, d});
       }
     if (!seeds.empty()) {
-      // The patch: the seeds and their one-ring, without fixed vertices.
-      std::vector<char> grown(m.global.size(), 0);
-      for (int v : seeds) grown[static_cast<std::size_t>(v)] = 1;
-      grown = grow_by_faces(m.prims.faces, grown);
-      std::vector<int> free;
-      for (std::size_t v = 0; v < grown.size(); ++v)
-        if (grown[v] && !level.vertex_fixed[static_cast<std::size_t>(m.global[v])]) free.push_back(static_cast<int>(v));
+      std::vector<char> marked(m.global.size(), 0);
+      for (int v : seeds) marked[static_cast<std::size_t>(v)] = 1;
+      const std::vector<int> free = movable_ring(m, marked, level.vertex_fixed);
       if (!free.empty()) {
         ++report.relaxed_patches;
-        relax_patch(m.prims, rest_now, free, level.offset, min_gap > 0.0 ? min_gap : 1e-3 * scale, g_ref, scale,
+        relax_patch(m.prims, rest_now, free, level.offset, min_gap > 0.0 ? min_gap : 1e-3 * scale, scale,
                     gp ? &*gp : nullptr, xc);
       }
     }
@@ -421,21 +528,44 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     scatter_rows(xc, m.global, x);
   }
 
-  // Strain limits (PSQ 4.4.5): move only the vertices level l did not have.
+  const CompactMesh m = compact_mesh(level, faces);
+  Positions xc = gather_rows(x, m.global);
+  const std::optional<GroundPlane> gp = level.contact ? compact_ground(level, m) : std::nullopt;
+  // 6. Vertices left short of their targets (stopped by the advancement where the target is beside
+  // a collider, or where the prolongation itself interpenetrates) are pulled toward them with the
+  // level's mesh and contact (relax_toward), as in step 4b but over all of them at once.
+  if (level.contact) {
+    const auto pull_start = Clock::now();
+    std::vector<char> short_of(m.global.size(), 0);
+    int count = 0;
+    for (std::size_t k = 0; k < m.global.size(); ++k)
+      if ((xc.row(static_cast<Eigen::Index>(k)) - target.row(m.global[k])).norm() > settings.short_fraction * scale) {
+        short_of[k] = 1;
+        ++count;
+      }
+    report.final_pull_vertices = count;
+    const std::vector<int> free = count > 0 ? movable_ring(m, short_of, level.vertex_fixed) : std::vector<int>{};
+    if (!free.empty())
+      report.pull_newton_iterations += pull_toward_aims(m.prims, m.rest, free, gather_rows(target, m.global), level.offset,
+                                                        scale, gp ? &*gp : nullptr, xc).newton_iterations;
+    report.pull_seconds = since(pull_start);
+  }
+  // 7. Strain limits (PSQ 4.4.5): first only the vertices level l did not have (PSQ); if that does
+  // not reach the limits, every vertex that is not fixed.
   // Without contact the barrier relaxation has nothing to keep apart: limits are then left to the
   // level's own solve (scene files only accept strain limits with a contact section anyway).
   const bool limited = level.contact && std::any_of(level.face_strain_limit.begin(), level.face_strain_limit.end(),
                                                     [](double s) { return s > 0.0; });
-  const CompactMesh m = compact_mesh(level, faces);
-  Positions xc = gather_rows(x, m.global);
   if (limited) {
+    const auto strain_start = Clock::now();
     std::vector<char> old(static_cast<std::size_t>(nf), 0);
     for (int i : level.collapses.coarse_to_fine) old[static_cast<std::size_t>(i)] = 1;
-    std::vector<int> free;
+    std::vector<int> new_free, all_free;
     for (std::size_t k = 0; k < m.global.size(); ++k) {
       const int i = m.global[k];
-      if (!old[static_cast<std::size_t>(i)] && !level.vertex_fixed[static_cast<std::size_t>(i)])
-        free.push_back(static_cast<int>(k));
+      if (level.vertex_fixed[static_cast<std::size_t>(i)]) continue;
+      all_free.push_back(static_cast<int>(k));
+      if (!old[static_cast<std::size_t>(i)]) new_free.push_back(static_cast<int>(k));
     }
     // Faces of the final mesh are exactly level l+1's, but compact_mesh orders them as the face set:
     // map each limit by its canonical triangle.
@@ -446,21 +576,22 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
           level.face_strain_limit[static_cast<std::size_t>(f)];
     int f = 0;
     for (const Tri& t : faces) limit[static_cast<std::size_t>(f++)] = by_tri.count(t) ? by_tri.at(t) : 0.0;
-    RelaxationMesh rm{&m.prims, &m.rest, level.offset};
-    const auto strain_start = Clock::now();
-    Positions relaxed = xc;
-    const RelaxationReport sr = relax_strain(rm, free, limit, StrainRelaxationSettings{}, relaxed);
-    // relax_strain sees neither the ground nor the per-pair offsets: carry its result into the mesh
-    // with the safe advancement, which stops short wherever it would meet them.
-    const std::optional<GroundPlane> gp = compact_ground(level, m);
-    advance_toward_targets(m.prims, level.offset, g_ref, gp ? &*gp : nullptr, relaxed, xc, settings.advance);
+    const RelaxationMesh rm{&m.prims, &m.rest, level.offset, gp ? &*gp : nullptr};
+    report.max_stretch_before = max_stretch_of(m.prims.faces, m.rest, limit, xc);
+    for (const std::vector<int>* free : {&new_free, &all_free}) {
+      Positions relaxed = xc;
+      std::vector<Positions> path;
+      const RelaxationReport sr = relax_strain(rm, *free, limit, StrainRelaxationSettings{}, relaxed, &path);
+      // Followed, not copied: the path is the one that was CCD-checked.
+      follow_path(m.prims, m.rest, level.offset, gp ? &*gp : nullptr, path, xc);
+      ++report.strain_passes;
+      if (sr.satisfied) break;
+    }
     report.strain_seconds = since(strain_start);
-    report.max_stretch_before = sr.max_stretch_before;
     report.max_stretch_after = max_stretch_of(m.prims.faces, m.rest, limit, xc);
-    scatter_rows(xc, m.global, x);
   }
+  scatter_rows(xc, m.global, x);
   if (level.contact) {
-    const std::optional<GroundPlane> gp = compact_ground(level, m);
     report.final_gap = min_contact_gap(m.prims, xc, level.offset, scale, gp ? &*gp : nullptr);
     if (min_gap > 0.0)
       report.unresolved_gaps =

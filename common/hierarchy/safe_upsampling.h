@@ -20,14 +20,31 @@
 //  4. Additive advancement of ALL present vertices toward their targets (safe_advance.h): for the
 //     intermediate connectivity between batches, the intermediate rest shape carried into the
 //     deformed shape (see the .cpp); after the last batch, the prolongation itself.
+//  4b. Splits the advancement left unopened (restored vertex nearer its kept vertex than half the
+//     distance between their aims: both in tight contact, their straight paths blocked) get their
+//     patch and one-ring pulled toward the aims by a Newton solve with membrane and barrier
+//     (patch_relaxation.h, relax_toward), which slides them along the contact. Not in PSQ, whose
+//     advancement stops such vertices too; without it a cloth draped over a sharp box and two
+//     stacked sheets failed (a later split beside an unopened one found no valid perturbation).
 //  5. Pairs left closer than the minimum gap (d - offset < min_gap_fraction * g_level, g_level the
 //     gap of the coarse solution) and badly shaped new triangles get a local relaxation of their
 //     patch (patch_relaxation.h: Newton on membrane + barrier with rising stiffness).
-// Then, if any face has a strain limit, the new vertices (those not on level l) are relaxed until
-// every limited face is below its limit (PSQ 4.4.5), the level-l vertices held fixed.
+// After the last batch:
+//  6. Vertices farther than short_fraction of an edge from their target are pulled toward it as in
+//     4b (e.g. where the advancement stopped them beside a collider).
+//  7. If any face has a strain limit, the new vertices (those not on level l) are relaxed until
+//     every limited face is below its limit (PSQ 4.4.5, level-l vertices fixed); if that does not
+//     reach the limits, a second pass moves every vertex that is not fixed (measured: with the level-l
+//     vertices fixed a self-fold stayed at 1.18 for a 1.05 limit; the second pass reaches 1.01).
+//
+// Every relaxation runs on a submesh around its free vertices, with the ground, and its result is
+// brought into the whole mesh by following its path of Newton iterates, each segment capped by CCD
+// against the whole mesh and the ground (so geometry outside the submesh is respected too).
+// Contact offsets: a pair beyond the offset is kept beyond it; a pair within it (only freshly split
+// edges start there) is kept intersection-free with thickness 0 until relaxation pushes it out.
 //
 // Fixed vertices (pins, obstacles) advance toward their targets like all others but are never moved
-// by relaxation. Ground contact is respected by the advancement (not by relaxation).
+// by relaxation.
 //
 // Deterministic: the pseudo-random directions come from a seeded mt19937_64 mapped to the sphere by
 // hand (std distributions are implementation-defined), one stream per collapse.
@@ -66,6 +83,12 @@ struct UpsamplingSettings {
   int max_perturbation_samples = 200;     // random directions tried per restored vertex
   double min_gap_fraction = 0.01;         // relax pairs below this fraction of the coarse solution's gap
   double min_quality = 0.05;              // relax new triangles below this quality (and half their rest quality)
+  // A split is unopened when its restored vertex ends an advancement nearer its kept vertex than
+  // this fraction of the distance between their aims; its patch is then pulled toward the aims.
+  double unopened_fraction = 0.5;
+  // After the last batch, vertices farther than this fraction of the mean edge from their target
+  // are pulled toward it (with their one-ring).
+  double short_fraction = 1e-3;
   std::uint64_t seed = 0x5eed;
   AdvanceSettings advance;
 };
@@ -80,6 +103,10 @@ struct UpsamplingReport {
   int stopped_vertices = 0;
   int redirections = 0;             // approaching components removed (safe_advance.h, "Sliding")
   int relaxed_patches = 0;          // batches that needed a gap/shape relaxation
+  int unopened_splits = 0;          // splits the advancement left unopened (pulled toward their aims)
+  int final_pull_vertices = 0;      // vertices short of their target after the last batch
+  int pull_newton_iterations = 0;   // Newton iterations of all pulls
+  int strain_passes = 0;            // strain relaxations run (new vertices, then all if needed)
   int unresolved_gaps = 0;          // pairs still below the minimum gap at the end
   double coarse_gap = 0.0;          // g_level: smallest gap of the coarse solution (m)
   double final_gap = 0.0;           // smallest gap of the result (m, same rule)
@@ -90,7 +117,8 @@ struct UpsamplingReport {
   double seconds = 0.0;             // total wall time, s; split into:
   double perturb_seconds = 0.0;     // gap measurements, topology updates and safe perturbations
   double advance_seconds = 0.0;     // additive advancement
-  double relax_seconds = 0.0;       // finding too-close pairs and bad triangles, and relaxing them
+  double relax_seconds = 0.0;       // pulling unopened splits, finding too-close pairs and bad triangles, relaxing them
+  double pull_seconds = 0.0;        // the final pull toward the targets
   double strain_seconds = 0.0;      // strain-limit relaxation
 };
 

@@ -310,6 +310,67 @@ TEST(PatchRelaxation, PairsBelowOffsetPushedPastOffsetPlusMinGap) {
   expect_rows_identical(start, s.x, mask_of(free, s.x.rows()));
 }
 
+// relax_toward: the free sheet's aim is its own shape moved 0.1 m sideways and 0.05 m down into
+// the fixed sheet below. The pull slides it sideways over the fixed sheet (the barrier holds it
+// above) instead of stopping where its straight path meets the fixed sheet.
+TEST(PatchRelaxation, PullTowardAimsSlidesAlongAFixedSheetAndKeepsTheOffset) {
+  std::vector<int> free;
+  Scene s = two_parallel_sheets(2e-3, free);
+  const Positions start = s.x;
+  const double offset = 1e-3;
+  Positions aim = s.x;
+  for (int v : free) aim.row(v) += Vec3(0.1, 0.0, -0.05).transpose();
+  std::vector<Positions> path;
+  const RelaxationReport r = relax_toward(s.mesh(offset), free, aim, TargetRelaxationSettings{}, s.x, &path);
+  double sideways = 0.0;
+  for (int v : free) sideways += (s.x(v, 0) - start(v, 0)) / static_cast<double>(free.size());
+  const double d = brute_force_min_distance(s);
+  std::printf("[pull] Newton %d, converged %d, distance to aims %.4g -> %.4g m, mean sideways %.5f m, d - offset %.3g m\n",
+              r.newton_iterations, r.satisfied ? 1 : 0, r.max_target_distance_before, r.max_target_distance_after,
+              sideways, d - offset);
+  EXPECT_TRUE(r.satisfied);
+  EXPECT_NEAR(sideways, 0.1, 1e-3);
+  EXPECT_GT(d, offset);
+  EXPECT_TRUE(test::intersection_free(s.x, s.prims.faces));
+  expect_rows_identical(start, s.x, mask_of(free, s.x.rows()));
+  // The path: one entry per accepted Newton step (the converged iteration takes none), ending at
+  // the result, every one intersection-free.
+  ASSERT_GE(static_cast<int>(path.size()), r.newton_iterations - 1);
+  ASSERT_LE(static_cast<int>(path.size()), r.newton_iterations);
+  EXPECT_TRUE(path.back() == s.x);
+  for (const Positions& p : path) EXPECT_TRUE(test::intersection_free(p, s.prims.faces));
+}
+
+// The ground of a RelaxationMesh holds free vertices above height + offset, in every solve.
+TEST(PatchRelaxation, GroundHoldsFreeVerticesAboveItsOffset) {
+  Scene s;
+  const TriMesh sheet = make_rectangle(0.5, 0.5, 4, 4);
+  Positions lifted = sheet.V;
+  lifted.col(2).array() += 2e-3;
+  s.add(sheet, lifted, true);
+  std::vector<int> free;
+  for (int v = 0; v < s.x.rows(); ++v) free.push_back(v);
+  const double offset = 1e-3;
+  GroundPlane ground{Vec3(0, 0, 1), 0.0, std::vector<char>(static_cast<std::size_t>(s.x.rows()), 1)};
+  RelaxationMesh mesh = s.mesh(offset);
+  mesh.ground = &ground;
+  Positions aim = s.x;
+  aim.col(2).array() -= 0.05;  // below the ground
+  const RelaxationReport r = relax_toward(mesh, free, aim, TargetRelaxationSettings{}, s.x);
+  std::printf("[ground] Newton %d, lowest vertex %.4g m (offset %.3g m)\n", r.newton_iterations, s.x.col(2).minCoeff(), offset);
+  EXPECT_GT(s.x.col(2).minCoeff(), offset);
+  EXPECT_LT(s.x.col(2).maxCoeff(), 2e-3);  // it was pulled down as far as the ground allows
+
+  // Bad ground input: a vertex inside the offset, or vertex_collides of the wrong size.
+  Positions low = s.x;
+  low(0, 2) = 0.5 * offset;
+  EXPECT_THROW(relax_toward(mesh, free, aim, TargetRelaxationSettings{}, low), std::invalid_argument);
+  GroundPlane short_ground = ground;
+  short_ground.vertex_collides.pop_back();
+  mesh.ground = &short_ground;
+  EXPECT_THROW(relax_toward(mesh, free, aim, TargetRelaxationSettings{}, s.x), std::invalid_argument);
+}
+
 TEST(PatchRelaxation, BadInputThrowsInvalidArgument) {
   std::vector<int> free;
   Scene s = two_parallel_sheets(1e-5, free);
@@ -336,6 +397,14 @@ TEST(PatchRelaxation, BadInputThrowsInvalidArgument) {
   StrainRelaxationSettings no_gap;
   no_gap.contact_gap = 0.0;
   EXPECT_THROW(relax_strain(s.mesh(), free, ok, no_gap, x), std::invalid_argument);
+
+  EXPECT_THROW(relax_toward(s.mesh(), free, x.topRows(3), TargetRelaxationSettings{}, x), std::invalid_argument);
+  TargetRelaxationSettings no_pull;
+  no_pull.target_stiffness = 0.0;
+  EXPECT_THROW(relax_toward(s.mesh(), free, x, no_pull, x), std::invalid_argument);
+  TargetRelaxationSettings no_reach;
+  no_reach.contact_gap = -1.0;
+  EXPECT_THROW(relax_toward(s.mesh(), free, x, no_reach, x), std::invalid_argument);
 
   // Touching start (the sheets coincide): the barrier is infinite there.
   Scene touching = two_parallel_sheets(0.0, free);

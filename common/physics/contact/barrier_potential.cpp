@@ -179,29 +179,63 @@ const CandidatePairs& BarrierPotential::candidates(const Eigen::VectorXd& x) con
   return cached_pairs_;
 }
 
+void BarrierPotential::set_thin_pairs(CandidatePairs pairs) {
+  for (auto* list : {&pairs.point_triangle, &pairs.edge_edge}) {
+    std::sort(list->begin(), list->end());
+    list->erase(std::unique(list->begin(), list->end()), list->end());
+  }
+  thin_ = std::move(pairs);
+}
+
+double BarrierPotential::pair_offset(int kind, const std::array<int, 2>& pair) const {
+  const auto& list = kind == kPointTriangle ? thin_.point_triangle : thin_.edge_edge;
+  return std::binary_search(list.begin(), list.end(), pair) ? 0.0 : settings_.offset;
+}
+
+double BarrierPotential::pair_dhat(double offset) const {
+  return offset == settings_.offset ? settings_.dhat : settings_.dhat + settings_.offset;
+}
+
+CandidatePairs BarrierPotential::pairs_within_offset(const Eigen::VectorXd& x) const {
+  CandidatePairs out;
+  const double offset2 = settings_.offset * settings_.offset;
+  const CandidatePairs pairs = find_candidates(primitives_, as_rows(x), settings_.offset);
+  for (const auto& pair : pairs.point_triangle)
+    if (point_triangle_squared_distance(gather(x, point_triangle_stencil(primitives_, pair))) <= offset2)
+      out.point_triangle.push_back(pair);
+  for (const auto& pair : pairs.edge_edge)
+    if (edge_edge_squared_distance(gather(x, edge_edge_stencil(primitives_, pair))) <= offset2)
+      out.edge_edge.push_back(pair);
+  return out;
+}
+
 template <class F>
 void BarrierPotential::for_each_active_pair(const Eigen::VectorXd& x, F&& f) const {
   const CandidatePairs& pairs = candidates(x);
   const double active_d2 = barrier_active_squared_distance(settings_.dhat, settings_.offset);
+  const double thin_active_d2 = barrier_active_squared_distance(settings_.dhat + settings_.offset, 0.0);
+  const bool any_thin = !thin_.point_triangle.empty() || !thin_.edge_edge.empty();
   for (const auto& pair : pairs.point_triangle) {
     const auto stencil = point_triangle_stencil(primitives_, pair);
     const Vec<12> x12 = gather(x, stencil);
     const double d2 = point_triangle_squared_distance(x12);
-    if (d2 < active_d2) f(kPointTriangle, stencil, x12, d2, 0.0);
+    const double offset = any_thin ? pair_offset(kPointTriangle, pair) : settings_.offset;
+    if (d2 < (offset == settings_.offset ? active_d2 : thin_active_d2)) f(kPointTriangle, stencil, x12, d2, 0.0, offset);
   }
   for (const auto& pair : pairs.edge_edge) {
     const auto stencil = edge_edge_stencil(primitives_, pair);
     const Vec<12> x12 = gather(x, stencil);
     const double d2 = edge_edge_squared_distance(x12);
     const double eps_x = kEdgeEdgeMollifierScale * edge_rest_length2_[pair[0]] * edge_rest_length2_[pair[1]];
-    if (d2 < active_d2) f(kEdgeEdge, stencil, x12, d2, eps_x);
+    const double offset = any_thin ? pair_offset(kEdgeEdge, pair) : settings_.offset;
+    if (d2 < (offset == settings_.offset ? active_d2 : thin_active_d2)) f(kEdgeEdge, stencil, x12, d2, eps_x, offset);
   }
 }
 
 double BarrierPotential::value(const Eigen::VectorXd& x) const {
   double e = 0.0;
-  for_each_active_pair(x, [&](int kind, const std::array<int, 4>&, const Vec<12>& x12, double d2, double eps_x) {
-    const double b = barrier(d2, settings_.dhat, settings_.offset);
+  for_each_active_pair(x, [&](int kind, const std::array<int, 4>&, const Vec<12>& x12, double d2, double eps_x, double offset) {
+    const double b = barrier(d2, pair_dhat(offset), offset);
     e += kind == kEdgeEdge ? edge_edge_mollifier(x12, eps_x) * b : b;
   });
   return settings_.kappa * e;
@@ -209,14 +243,14 @@ double BarrierPotential::value(const Eigen::VectorXd& x) const {
 
 Eigen::VectorXd BarrierPotential::unit_stiffness_gradient(const Eigen::VectorXd& x) const {
   Eigen::VectorXd g = Eigen::VectorXd::Zero(x.size());
-  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double eps_x) {
-    const double db = barrier_first_derivative(d2, settings_.dhat, settings_.offset);
+  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double eps_x, double offset) {
+    const double db = barrier_first_derivative(d2, pair_dhat(offset), offset);
     Vec<12> ge;
     if (kind == kPointTriangle) {
       ge = db * point_triangle_squared_distance_gradient(x12);
     } else {
       // d(m b) = m b' grad d2 + b grad m
-      const double b = barrier(d2, settings_.dhat, settings_.offset);
+      const double b = barrier(d2, pair_dhat(offset), offset);
       ge = edge_edge_mollifier(x12, eps_x) * db * edge_edge_squared_distance_gradient(x12) +
            b * edge_edge_mollifier_gradient(x12, eps_x);
     }
@@ -233,9 +267,9 @@ void BarrierPotential::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g
 void BarrierPotential::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                                    HessianAssembly& hessian) const {
   const double kappa = settings_.kappa;
-  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double eps_x) {
-    const double db = barrier_first_derivative(d2, settings_.dhat, settings_.offset);
-    const double ddb = barrier_second_derivative(d2, settings_.dhat, settings_.offset);
+  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double eps_x, double offset) {
+    const double db = barrier_first_derivative(d2, pair_dhat(offset), offset);
+    const double ddb = barrier_second_derivative(d2, pair_dhat(offset), offset);
     Mat<12> H;
     if (kind == kPointTriangle) {
       const Vec<12> g = point_triangle_squared_distance_gradient(x12);
@@ -245,7 +279,7 @@ void BarrierPotential::add_hessian(const Eigen::VectorXd& x, HessianProjection p
       const Vec<12> g = edge_edge_squared_distance_gradient(x12);
       const Vec<12> gm = edge_edge_mollifier_gradient(x12, eps_x);
       const double m = edge_edge_mollifier(x12, eps_x);
-      const double b = barrier(d2, settings_.dhat, settings_.offset);
+      const double b = barrier(d2, pair_dhat(offset), offset);
       H = m * (ddb * g * g.transpose() + db * edge_edge_squared_distance_hessian(x12)) +
           b * edge_edge_mollifier_hessian(x12, eps_x) + db * (gm * g.transpose() + g * gm.transpose());
     }
@@ -262,12 +296,12 @@ double BarrierPotential::max_step(const Eigen::VectorXd& x, const Eigen::VectorX
   for (const auto& pair : pairs.point_triangle) {
     const auto s = point_triangle_stencil(primitives_, pair);
     alpha = std::min(alpha, point_triangle_accd(gather(x, s), gather(dx, s), settings_.ccd_ratio,
-                                                settings_.offset, alpha));
+                                                pair_offset(kPointTriangle, pair), alpha));
   }
   for (const auto& pair : pairs.edge_edge) {
     const auto s = edge_edge_stencil(primitives_, pair);
     alpha = std::min(alpha, edge_edge_accd(gather(x, s), gather(dx, s), settings_.ccd_ratio,
-                                           settings_.offset, alpha));
+                                           pair_offset(kEdgeEdge, pair), alpha));
   }
   return alpha;
 }
@@ -275,11 +309,10 @@ double BarrierPotential::max_step(const Eigen::VectorXd& x, const Eigen::VectorX
 ContactStats BarrierPotential::stats(const Eigen::VectorXd& x) const {
   ContactStats s;
   s.min_gap = std::numeric_limits<double>::infinity();
-  const double dhat = settings_.dhat;
-  for_each_active_pair(x, [&](int kind, const std::array<int, 4>&, const Vec<12>&, double d2, double) {
-    const double gap = std::sqrt(d2) - settings_.offset;
+  for_each_active_pair(x, [&](int kind, const std::array<int, 4>&, const Vec<12>&, double d2, double, double offset) {
+    const double gap = std::sqrt(d2) - offset;
     s.min_gap = std::min(s.min_gap, gap);
-    if (gap < dhat) ++(kind == kPointTriangle ? s.active_point_triangle : s.active_edge_edge);
+    if (gap < pair_dhat(offset)) ++(kind == kPointTriangle ? s.active_point_triangle : s.active_edge_edge);
   });
   return s;
 }
@@ -299,7 +332,7 @@ void BarrierPotential::set_friction(Eigen::MatrixXd mu) {
 void BarrierPotential::friction_contacts(const Eigen::VectorXd& x, std::vector<FrictionContact>& out) const {
   if (friction_mu_.size() == 0) return;
   const std::vector<int>& object = primitives_.vertex_object;
-  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double eps_x) {
+  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double eps_x, double offset) {
     // Objects of the two primitives: the point and the face (PT), edge a and edge b (EE).
     const double mu = friction_mu_(object[v[0]], object[v[kind == kPointTriangle ? 1 : 2]]);
     if (!(mu > 0.0)) return;
@@ -310,7 +343,7 @@ void BarrierPotential::friction_contacts(const Eigen::VectorXd& x, std::vector<F
     c.weights = frame.weights;
     c.basis = tangent_basis(frame.normal, frame.along);
     // |d (kappa b) / d d| with d = sqrt(d2): b is a function of d2 and d(d2)/dd = 2 d.
-    c.normal_force = -settings_.kappa * barrier_first_derivative(d2, settings_.dhat, settings_.offset) * 2.0 *
+    c.normal_force = -settings_.kappa * barrier_first_derivative(d2, pair_dhat(offset), offset) * 2.0 *
                      std::sqrt(d2);
     if (kind == kEdgeEdge) c.normal_force *= edge_edge_mollifier(x12, eps_x);
     c.mu = mu;

@@ -52,6 +52,19 @@ class BarrierPotential : public EnergyTerm, public FrictionSource {
   // The barrier's gradient without kappa (for initial_barrier_stiffness).
   Eigen::VectorXd unit_stiffness_gradient(const Eigen::VectorXd& x) const;
 
+  // Pairs that contact at distance 0 instead of settings().offset: pairs that already sit within
+  // the offset in a state the caller must start from (a freshly split edge in safe upsampling is
+  // shorter than the shell thickness). With the offset, the barrier is infinite there and no Newton
+  // step can start; with offset 0 for the whole term, every other pair could be pressed into the
+  // offset. A thin pair is active over the same distances as the others (d < offset + dhat): its
+  // barrier is b(d^2; offset + dhat, 0), so it still pushes the pair out past the offset.
+  // Pairs in broad-phase form (point-triangle (vertex, face), edge-edge (edge a < edge b));
+  // sorted and de-duplicated here. Empty by default (every pair uses the offset).
+  void set_thin_pairs(CandidatePairs pairs);
+  // The candidate pairs at x (positions, stacked) whose distance is <= settings().offset: what
+  // set_thin_pairs needs for a start state x.
+  CandidatePairs pairs_within_offset(const Eigen::VectorXd& x) const;
+
   const ContactSettings& settings() const { return settings_; }
   void set_kappa(double kappa) { settings_.kappa = kappa; }
   const ContactPrimitives& primitives() const { return primitives_; }
@@ -77,9 +90,11 @@ class BarrierPotential : public EnergyTerm, public FrictionSource {
   void friction_contacts(const Eigen::VectorXd& x, std::vector<FrictionContact>& out) const override;
 
  private:
-  // Calls f(kind, stencil, x12, d2, eps_x) for every candidate pair within the activation distance
-  // at x: kind 0 = point-triangle, 1 = edge-edge; stencil = the 4 global vertices in variable order;
-  // x12 their positions; d2 the squared distance (m^2); eps_x the mollifier threshold (edge-edge).
+  // Calls f(kind, stencil, x12, d2, eps_x, offset) for every candidate pair within the activation
+  // distance at x: kind 0 = point-triangle, 1 = edge-edge; stencil = the 4 global vertices in
+  // variable order; x12 their positions; d2 the squared distance (m^2); eps_x the mollifier threshold
+  // (edge-edge); offset the pair's contact offset (m: 0 for thin pairs, else settings_.offset;
+  // pair_dhat(offset) is then its activation distance).
   template <class F>
   void for_each_active_pair(const Eigen::VectorXd& x, F&& f) const;
 
@@ -93,6 +108,9 @@ class BarrierPotential : public EnergyTerm, public FrictionSource {
   std::vector<double> edge_rest_length2_;  // |e_rest|^2 per edge, for the mollifier threshold
   ContactSettings settings_;
   Eigen::MatrixXd friction_mu_;  // (#objects, #objects) or empty (no friction)
+  CandidatePairs thin_;          // pairs with offset 0 (set_thin_pairs), sorted
+  double pair_offset(int kind, const std::array<int, 2>& pair) const;  // 0 for thin pairs
+  double pair_dhat(double pair_offset) const;  // activation measured from the pair's offset
 };
 
 }  // namespace pd

@@ -80,6 +80,53 @@ TEST(BarrierPotential, MaxStepStopsATriangleBeforeItPassesThroughAnother) {
   EXPECT_GT(term.stats(x1).min_gap, 0.0);
 }
 
+// Thin pairs (set_thin_pairs) contact at distance 0 instead of the offset. The squares' closest
+// pairs are ~0.1 m apart, so an offset of 0.1 m puts some of them inside it and leaves others out.
+TEST(BarrierPotential, ThinPairsContactAtDistanceZeroAndEveryOtherPairAtTheOffset) {
+  TwoSquares s;
+  ContactSettings with_offset;
+  with_offset.dhat = 0.1;
+  with_offset.offset = 0.1;
+  with_offset.kappa = 10.0;
+
+  BarrierPotential plain(s.prims, s.rest, with_offset);
+  const CandidatePairs thin = plain.pairs_within_offset(s.x);
+  ASSERT_FALSE(thin.point_triangle.empty() && thin.edge_edge.empty());
+  EXPECT_FALSE(std::isfinite(plain.value(s.x)));  // a pair inside the offset: infinite barrier
+
+  // Every candidate pair thin: the term is the offset-0 term with its own activation distance.
+  BarrierPotential all_thin(s.prims, s.rest, with_offset);
+  all_thin.set_thin_pairs(find_candidates(s.prims, as_rows(s.x), 1.0));
+  ContactSettings zero = with_offset;
+  zero.offset = 0.0;
+  zero.dhat = with_offset.offset + with_offset.dhat;  // thin pairs are active as far out as the others
+  const BarrierPotential offset_zero(s.prims, s.rest, zero);
+  ASSERT_GT(offset_zero.value(s.x), 0.0);
+  EXPECT_DOUBLE_EQ(all_thin.value(s.x), offset_zero.value(s.x));
+  EXPECT_LT((test::term_gradient(all_thin, s.x) - test::term_gradient(offset_zero, s.x)).norm(),
+            1e-12 * test::term_gradient(offset_zero, s.x).norm());
+
+  // Only the pairs within the offset thin: finite, with derivatives that match finite differences
+  // (steps of 1e-4 .. 1e-7 m, far below every gap, so no pair changes activity or offset).
+  BarrierPotential mixed(s.prims, s.rest, with_offset);
+  mixed.set_thin_pairs(thin);
+  EXPECT_TRUE(std::isfinite(mixed.value(s.x)));
+  EXPECT_GT(mixed.value(s.x), 0.0);
+  EXPECT_NE(mixed.value(s.x), offset_zero.value(s.x));  // the other pairs keep their offset
+  ASSERT_GT(mixed.stats(s.x).min_gap, 0.0);
+  test::expect_derivatives_match(test::check_term_derivatives(mixed, s.x), 1e-6, 1e-5);
+
+  // The step cap lets thin pairs come closer than the offset, never through each other.
+  Eigen::VectorXd dx = Eigen::VectorXd::Zero(s.x.size());
+  for (int v = 9; v < 18; ++v) dx[3 * v + 2] = -0.13;
+  const double alpha = mixed.max_step(s.x, dx);
+  EXPECT_GT(alpha, 0.0);
+  EXPECT_LT(alpha, 1.0);
+  const Eigen::VectorXd x1 = s.x + alpha * dx;
+  EXPECT_TRUE(test::intersection_free(as_rows(x1), s.prims.faces));
+  EXPECT_GT(mixed.stats(x1).min_gap, 0.0);
+}
+
 TEST(BarrierPotential, SheetDroppedOnASphereNeverIntersectsAndStaysOnTop) {
   // A 0.6 m cotton sheet dropped from 5 cm above a pinned sphere of radius 0.15 m.
   Scene scene;
