@@ -322,26 +322,29 @@ double run_size(const std::string& shape, int cells, const Options& opt, std::ve
       }
       const double wall = out.wall;
       total += setup + wall;
-      const double other = r.seconds - r.perturb_seconds - r.advance_seconds - r.relax_seconds - r.strain_seconds;
+      const double other =
+          r.seconds - r.perturb_seconds - r.advance_seconds - r.relax_seconds - r.pull_seconds - r.strain_seconds;
       std::printf("%s %d -> %d (%d -> %d vertices): setup %.3f s, wall %.3f s; %d batches, %d splits (%d random "
                   "perturbations, %d samples), %d advance events (%d close, %d redirections), %d stopped, %d relaxed patches, %d "
+                  "unopened splits, %d short at the end (%d pull iterations), %d "
                   "unresolved; gap %.3g -> %.3g m; target distance max %.3g m rms %.3g m; stretch %.4f -> %.4f; "
-                  "%.3f s (perturb %.3f, advance %.3f, relax %.3f, strain %.3f, other %.3f)\n",
+                  "%.3f s (perturb %.3f, advance %.3f, relax %.3f, pull %.3f, strain %.3f, other %.3f)\n",
                   states[s], l, l + 1, static_cast<int>(x.rows()), static_cast<int>(target.rows()), setup, wall,
                   r.batches, r.splits, r.random_perturbations, r.perturbation_samples, r.advance_events,
-                  r.close_events, r.redirections, r.stopped_vertices, r.relaxed_patches, r.unresolved_gaps, r.coarse_gap,
-                  r.final_gap,
+                  r.close_events, r.redirections, r.stopped_vertices, r.relaxed_patches, r.unopened_splits,
+                  r.final_pull_vertices, r.pull_newton_iterations, r.unresolved_gaps, r.coarse_gap, r.final_gap,
                   r.max_target_distance, r.rms_target_distance, r.max_stretch_before, r.max_stretch_after, r.seconds,
-                  r.perturb_seconds, r.advance_seconds, r.relax_seconds, r.strain_seconds, other);
+                  r.perturb_seconds, r.advance_seconds, r.relax_seconds, r.pull_seconds, r.strain_seconds, other);
       std::fflush(stdout);
-      upsample_rows.push_back(fmt("| %s | %d | %s | %d -> %d | %d | %d | %d (%d) | %d | %d | %d | %.3g / %.3g | %.2g / %.2g | "
-                                  "%.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |",
+      upsample_rows.push_back(fmt("| %s | %d | %s | %d -> %d | %d | %d | %d (%d) | %d | %d | %d / %d | %d | %.3g / %.3g | "
+                                  "%.2g / %.2g | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |",
                                   shape.c_str(), n, states[s], static_cast<int>(x.rows()),
                                   static_cast<int>(target.rows()), r.batches, r.splits, r.advance_events,
-                                  r.close_events, r.stopped_vertices, r.relaxed_patches, r.unresolved_gaps,
-                                  1e3 * r.coarse_gap, 1e3 * r.final_gap,
+                                  r.close_events, r.stopped_vertices, r.relaxed_patches, r.unopened_splits,
+                                  r.final_pull_vertices, r.unresolved_gaps, 1e3 * r.coarse_gap, 1e3 * r.final_gap,
                                   r.max_target_distance, r.rms_target_distance, r.seconds, r.perturb_seconds,
-                                  r.advance_seconds, r.relax_seconds, r.strain_seconds, other, setup, r.seconds / build));
+                                  r.advance_seconds, r.relax_seconds, r.pull_seconds, r.strain_seconds, other, setup,
+                                  r.seconds / build));
     }
     std::printf("%s: upsampling all transitions %.2f s = %.2f x the build\n", states[s], total, total / build);
     state_seconds[static_cast<std::size_t>(s)] = total;
@@ -374,9 +377,9 @@ int main(int argc, char** argv) {
               "prolongation error, levels 0 / 1 / 2 (m) |\n| --- | --- | ---: | ---: | ---: | ---: | --- |\n");
   for (const std::string& r : build_rows) std::printf("%s\n", r.c_str());
   std::printf("\n| shape | finest vertices | state | vertices | batches | splits | advance events (close) | stopped | "
-              "relaxed patches | unresolved | gap coarse / final (mm) | target distance max / rms (m) | s | perturb | advance | relax | strain "
-              "| other | setup s | s / build |\n| --- | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- | --- | "
-              "---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
+              "relaxed patches | unopened splits / short at end | unresolved | gap coarse / final (mm) | target distance max / rms "
+              "(m) | s | perturb | advance | relax | pull | strain | other | setup s | s / build |\n| --- | ---: | --- | --- | ---: | "
+              "---: | ---: | ---: | ---: | ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
   for (const std::string& r : upsample_rows) std::printf("%s\n", r.c_str());
   return 0;
 }
