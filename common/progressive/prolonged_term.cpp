@@ -1,0 +1,101 @@
+#include "progressive/prolonged_term.h"
+
+#include <map>
+#include <stdexcept>
+#include <utility>
+
+namespace pd {
+
+ProlongationState::ProlongationState(const ShellProlongation& prolongation, const Eigen::VectorXd& coarse_rest)
+    : P_(&prolongation) {
+  if (coarse_rest.size() != 3 * static_cast<Eigen::Index>(prolongation.num_coarse()))
+    throw std::invalid_argument("ProlongationState: the coarse rest positions need 3 entries per coarse vertex");
+  offsets_ = prolongation.offsets(as_rows(coarse_rest));
+}
+
+bool ProlongationState::refresh(const Eigen::VectorXd& x) {
+  try {
+    offsets_ = P_->offsets(as_rows(x));
+    return true;
+  } catch (const DegenerateProlongationTriangle&) {
+    return false;  // keep the last offsets: see the header
+  }
+}
+
+Eigen::VectorXd ProlongationState::fine_positions(const Eigen::VectorXd& x) const {
+  return stacked(P_->apply_frozen(as_rows(x), offsets_));
+}
+
+ProlongedTerm::ProlongedTerm(std::unique_ptr<EnergyTerm> fine, std::shared_ptr<ProlongationState> state,
+                             ProlongedHessian mode, std::unique_ptr<EnergyTerm> coarse_stand_in)
+    : fine_(std::move(fine)), state_(std::move(state)), mode_(mode), coarse_(std::move(coarse_stand_in)) {
+  if (!fine_ || !state_) throw std::invalid_argument("ProlongedTerm: needs a fine term and a prolongation state");
+  if (mode_ == ProlongedHessian::Coarse && !coarse_)
+    throw std::invalid_argument("ProlongedTerm: the Coarse Hessian needs a stand-in term on the level's mesh");
+}
+
+double ProlongedTerm::value(const Eigen::VectorXd& x) const { return fine_->value(state_->fine_positions(x)); }
+
+void ProlongedTerm::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(state_->num_fine()));
+  fine_->add_gradient(state_->fine_positions(x), g);
+  grad += state_->restrict(g);
+}
+
+void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
+                                HessianAssembly& hessian) const {
+  if (mode_ == ProlongedHessian::Coarse) {
+    coarse_->add_hessian(x, projection, hessian);
+    return;
+  }
+  // Galerkin: the fine Hessian (each element block projected as asked), made full from its stored
+  // lower triangle, carried through U.
+  fine_hessian_.begin(3 * state_->num_fine());
+  fine_->add_hessian(state_->fine_positions(x), projection, fine_hessian_);
+  const HessianAssembly::SparseMatrix& lower = fine_hessian_.finish(nullptr);
+  const Eigen::SparseMatrix<double> strict_lower = lower.triangularView<Eigen::StrictlyLower>();
+  const Eigen::SparseMatrix<double> full = Eigen::SparseMatrix<double>(lower) + Eigen::SparseMatrix<double>(strict_lower.transpose());
+  const Eigen::SparseMatrix<double>& U = state_->U();
+  const Eigen::SparseMatrix<double> G = Eigen::SparseMatrix<double>(U.transpose()) * (full * U);
+
+  // Hand G to the coarse assembly in 3x3 vertex blocks: a diagonal block as a one-vertex element,
+  // an off-diagonal block (i > j) as the (i, j) block of a two-vertex element whose other blocks are
+  // zero. G's pattern depends only on the meshes and U, so the stencil sequence repeats from one
+  // assembly to the next and the coarse pattern is analysed once.
+  const int nc = state_->num_coarse();
+  for (int j = 0; j < nc; ++j) {
+    std::map<int, Mat3> blocks;  // row vertex i >= j -> block (rows of i, columns of j)
+    for (int b = 0; b < 3; ++b)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(G, 3 * j + b); it; ++it) {
+        const int i = static_cast<int>(it.row()) / 3;
+        if (i < j) continue;
+        auto found = blocks.try_emplace(i, Mat3::Zero()).first;
+        found->second(static_cast<int>(it.row()) % 3, b) = it.value();
+      }
+    for (const auto& [i, block] : blocks) {
+      if (i == j) {
+        hessian.add<1>({i}, block);
+      } else {
+        Eigen::Matrix<double, 6, 6> pair = Eigen::Matrix<double, 6, 6>::Zero();
+        pair.block<3, 3>(0, 3) = block;
+        hessian.add<2>({i, j}, pair);
+      }
+    }
+  }
+}
+
+void ProlongedTerm::begin_step(const StepStart& step) {
+  StepStart fine = step;
+  Eigen::VectorXd x_fine, v_fine;
+  if (step.x) {
+    x_fine = state_->fine_positions(*step.x);
+    fine.x = &x_fine;
+  }
+  if (step.v) {
+    v_fine = state_->U() * *step.v;
+    fine.v = &v_fine;
+  }
+  fine_->begin_step(fine);
+}
+
+}  // namespace pd
