@@ -1,5 +1,7 @@
 #include "physics/inertia.h"
 
+#include <stdexcept>
+
 #include <cassert>
 #include <utility>
 
@@ -30,6 +32,12 @@ void InertiaTerm::begin_step(const StepStart& step) {
   h_ = step.h;
   xhat_ = *step.x + h_ * *step.v;
   mass_over_h2_ = masses_ / (h_ * h_);
+}
+
+void InertiaTerm::set_predicted_positions(const Eigen::VectorXd& xhat) {
+  if (xhat.size() != masses_.size())
+    throw std::invalid_argument("InertiaTerm::set_predicted_positions: xhat needs one entry per dof");
+  xhat_ = xhat;
 }
 
 double InertiaTerm::value(const Eigen::VectorXd& x) const {

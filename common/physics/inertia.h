@@ -37,6 +37,9 @@ class InertiaTerm : public EnergyTerm {
 
   // xhat = x_start + h v_start: where the vertices would go with no forces at all.
   void begin_step(const StepStart& step) override;
+  // Replaces xhat for the current step (after begin_step): progressive refinement's momentum comes
+  // from the level below (PD eq. 5), not from this level's own x_start + h v_start. Size 3n, m.
+  void set_predicted_positions(const Eigen::VectorXd& xhat);
 
   const Eigen::VectorXd& masses() const { return masses_; }
   const Eigen::VectorXd& predicted_positions() const { return xhat_; }  // xhat, m

@@ -6,6 +6,7 @@
 #include "physics/contact/friction.h"
 #include "physics/inertia.h"
 #include "physics/pin_target.h"
+#include "progressive/prolonged_term.h"
 
 namespace pd {
 
@@ -97,7 +98,7 @@ int LevelStepper::move_pins(double t_end, Eigen::VectorXd& x, const NewtonSettin
   return rounds;
 }
 
-FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v) {
+FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v, const StepInput& input) {
   const auto t0 = std::chrono::steady_clock::now();
   const double t_end = (frame + 1) * h_;
   const Eigen::VectorXd x_start = x, v_start = v;
@@ -107,7 +108,12 @@ FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v
   start.h = h_;
   start.x = &x_start;
   start.v = &v_start;
+  if (input.warm_start) x = *input.warm_start;
+  // A coarse level's prolonged elasticity takes its frozen offsets from Newton's current iterate
+  // (progressive/prolonged_term.h): first from the start, then after every accepted iterate.
+  if (sys_.prolongation) sys_.prolongation->refresh(x);
   sys_.ip.begin_step(start);
+  if (input.inertia_target) sys_.inertia->set_predicted_positions(*input.inertia_target);
   sys_.contact.begin_step(sys_.ip, start);
 
   NewtonSettings ns;
@@ -121,8 +127,13 @@ FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v
     ns.step_tolerance = std::min(ns.step_tolerance, kFrictionToleranceFraction * sys_.contact.friction->eps_v());
   ns.max_iterations = settings_.max_newton_iterations;
   ns.projection = settings_.projection;
-  if (sys_.contact.has_barrier())
-    ns.after_iteration = [this](const Eigen::VectorXd& xi) { return sys_.contact.after_iteration(xi); };
+  const bool barrier = sys_.contact.has_barrier();
+  if (barrier || sys_.prolongation)
+    ns.after_iteration = [this, barrier](const Eigen::VectorXd& xi) {
+      const bool kappa_changed = barrier && sys_.contact.after_iteration(xi);
+      const bool offsets_changed = sys_.prolongation && sys_.prolongation->refresh(xi);
+      return kappa_changed || offsets_changed;
+    };
 
   // Pinned vertices go to where their scripts put them at the end of the step; Newton then keeps
   // them there (fixed dofs) and solves for the rest.

@@ -29,14 +29,24 @@ struct FrameRecord {
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> center_of_mass;
 };
 
+// What a progressive step changes from a plain implicit Euler step (PD Algorithm 1).
+struct StepInput {
+  // The inertia target xhat (m, 3n): the momentum prolonged from the level below (PD eq. 5).
+  // Null: the level's own x + h v.
+  const Eigen::VectorXd* inertia_target = nullptr;
+  // Newton's first iterate (m, 3n; must be intersection-free and within the strain limits): a
+  // vertical warm start (safe upsampling of the level below). Null: x, the horizontal warm start.
+  const Eigen::VectorXd* warm_start = nullptr;
+};
+
 class LevelStepper {
  public:
   LevelStepper(SceneSystem& system, const SolverSettings& settings, double h);
 
   // Frame 0: the initial state.
   FrameRecord initial_frame() const;
-  // Advances from (x, v) at frame `frame` to frame + 1, updating x and v.
-  FrameRecord step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v);
+  // Advances from (x, v) at frame `frame` to frame + 1, updating x and v (v = (x_new - x) / h).
+  FrameRecord step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v, const StepInput& input = {});
 
  private:
   FrameRecord record(int frame, const Eigen::VectorXd& x, const Eigen::VectorXd& v) const;

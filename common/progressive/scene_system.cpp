@@ -49,7 +49,18 @@ Vec3 keyframed_position(const std::vector<Keyframe>& keys, const Vec3& X, double
 
 }  // namespace
 
-SceneSystem build_scene_system(const Scene& scene) {
+void add_shell_elasticity(const SceneObject& obj, const Faces& faces, int offset, const Positions& rest,
+                          std::vector<std::unique_ptr<EnergyTerm>>& terms) {
+  const Material& mat = obj.material;
+  terms.push_back(std::make_unique<NeoHookeanMembrane>(
+      faces, rest, MembraneMaterialParams::from(mat.youngs_modulus, mat.poisson_ratio, mat.thickness)));
+  std::vector<Hinge> hinges = build_topology(obj.rest).hinges;
+  for (auto& hg : hinges)
+    for (int& v : hg.v) v += offset;
+  if (!hinges.empty()) terms.push_back(std::make_unique<HingeBending>(hinges, rest, mat.bending_rigidity()));
+}
+
+SceneSystem build_scene_system(const Scene& scene, bool own_elasticity) {
   SceneSystem sys;
   int n = 0, m = 0;
   sys.object_offsets.push_back(0);
@@ -94,13 +105,7 @@ SceneSystem build_scene_system(const Scene& scene) {
     const Material& mat = obj.material;
     sys.masses.segment(3 * off, 3 * nv) = lumped_masses(obj.rest.F, obj.rest.V, mat.density * mat.thickness);
 
-    terms.push_back(std::make_unique<NeoHookeanMembrane>(
-        F, sys.rest.V, MembraneMaterialParams::from(mat.youngs_modulus, mat.poisson_ratio, mat.thickness)));
-    std::vector<Hinge> hinges = build_topology(obj.rest).hinges;
-    for (auto& hg : hinges)
-      for (int& v : hg.v) v += off;
-    if (!hinges.empty())
-      terms.push_back(std::make_unique<HingeBending>(hinges, sys.rest.V, mat.bending_rigidity()));
+    if (own_elasticity) add_shell_elasticity(obj, F, off, sys.rest.V, terms);
     if (obj.pressure) terms.push_back(std::make_unique<PressureTerm>(F, sys.x0, *obj.pressure));
     if (scene.wind && obj.wind) terms.push_back(std::make_unique<WindTerm>(F, *scene.wind));
 
@@ -108,7 +113,9 @@ SceneSystem build_scene_system(const Scene& scene) {
   }
 
   // Inertia first, gravity (only when non-zero) next, then elasticity and the rest.
-  sys.ip.add_term(std::make_unique<InertiaTerm>(sys.masses));
+  auto inertia = std::make_unique<InertiaTerm>(sys.masses);
+  sys.inertia = inertia.get();
+  sys.ip.add_term(std::move(inertia));
   if (scene.gravity.squaredNorm() > 0) sys.ip.add_term(std::make_unique<GravityTerm>(sys.masses, scene.gravity));
   for (auto& t : terms) sys.ip.add_term(std::move(t));
 

@@ -2,6 +2,7 @@
 // The discrete system of a scene at one resolution: all objects' vertices concatenated into one
 // stacked vector, their lumped masses, pins, and the incremental potential built from exactly the
 // terms the scene declares (a scene without wind has no wind term, and so on).
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -14,7 +15,9 @@
 
 namespace pd {
 
+class InertiaTerm;
 class PinTargetTerm;
+class ProlongationState;
 
 struct PinnedVertex {
   int vertex = 0;        // global vertex index
@@ -33,14 +36,25 @@ struct SceneSystem {
   std::vector<PinScript> scripts;
   double bbox_diagonal = 0.0;            // of the initial positions, m (scales the Newton tolerance)
   IncrementalPotential ip;               // inertia first, then the scene's terms
+  InertiaTerm* inertia = nullptr;        // ip's first term
   ContactControl contact;                // the contact and strain-limit terms in ip, if any
   PinTargetTerm* pin_target = nullptr;   // in ip when some pin has a script (see level_stepper.cpp)
   double average_free_mass = 0.0;        // mean lumped mass of the vertices with mass, kg
+  // A coarse level of a progressive run (progressive/level_system.h): the prolongation whose frozen
+  // offsets its elasticity uses, refreshed by the stepper at every Newton iterate. Null otherwise.
+  std::shared_ptr<ProlongationState> prolongation;
 };
 
-// Builds the system of the scene's finest meshes. Obstacles get every vertex pinned to their
-// motion script, no mass and no elastic terms.
-SceneSystem build_scene_system(const Scene& scene);
+// Builds the system of the scene's meshes as given. Obstacles get every vertex pinned to their
+// motion script, no mass and no elastic terms. own_elasticity = false leaves out every object's
+// membrane and bending (a coarse level of a progressive run adds the finest level's instead).
+SceneSystem build_scene_system(const Scene& scene, bool own_elasticity = true);
+
+// An object's shell elasticity (Neo-Hookean membrane, then hinge bending if it has interior edges)
+// appended to `terms`: faces = its faces in global ids, offset = its first global vertex, rest = the
+// global rest positions the terms read.
+void add_shell_elasticity(const SceneObject& obj, const Faces& faces, int offset, const Positions& rest,
+                          std::vector<std::unique_ptr<EnergyTerm>>& terms);
 
 // Where a pinned vertex is at time t (s).
 Vec3 pin_position(const SceneSystem& sys, const PinnedVertex& pin, double t);

@@ -1,0 +1,77 @@
+#include "progressive/level_system.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pd {
+
+Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int level) {
+  if (level < 0 || level > hierarchy.finest())
+    throw std::invalid_argument("scene_at_level: level " + std::to_string(level) + " is not in [0, " +
+                                std::to_string(hierarchy.finest()) + "]");
+  if (hierarchy.objects.size() != scene.objects.size())
+    throw std::invalid_argument("scene_at_level: the hierarchy has " + std::to_string(hierarchy.objects.size()) +
+                                " objects, the scene " + std::to_string(scene.objects.size()));
+  if (level == hierarchy.finest()) return scene;
+  Scene out = scene;
+  for (std::size_t o = 0; o < scene.objects.size(); ++o) {
+    const SceneObject& finest = scene.objects[o];
+    const Level& lv = hierarchy.objects[o].levels[static_cast<std::size_t>(level)];
+    SceneObject& obj = out.objects[o];
+    obj.rest = lv.mesh;
+    obj.initial = lv.mesh.V;
+    std::vector<int> level_of(static_cast<std::size_t>(finest.rest.num_vertices()), -1);
+    for (std::size_t i = 0; i < lv.to_finest.size(); ++i) {
+      const int f = lv.to_finest[i];
+      level_of[static_cast<std::size_t>(f)] = static_cast<int>(i);
+      obj.initial.row(static_cast<Eigen::Index>(i)) += finest.initial.row(f) - finest.rest.V.row(f);
+    }
+    for (PinGroup& g : obj.pins) {
+      for (int& v : g.vertices) {
+        const int mapped = level_of[static_cast<std::size_t>(v)];
+        if (mapped < 0)
+          throw std::invalid_argument("scene_at_level: objects[" + std::to_string(o) + "] (" + finest.name +
+                                      "): pinned vertex " + std::to_string(v) + " is not on level " +
+                                      std::to_string(level));
+        v = mapped;
+      }
+      std::sort(g.vertices.begin(), g.vertices.end());
+    }
+  }
+  return out;
+}
+
+SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarchy, int level,
+                               const LevelSystemOptions& options) {
+  const Scene at_level = scene_at_level(scene, hierarchy, level);
+  if (level == hierarchy.finest()) return build_scene_system(at_level);
+
+  SceneSystem sys = build_scene_system(at_level, /*own_elasticity=*/false);
+  const SceneLevel& lv = hierarchy.levels[static_cast<std::size_t>(level)];
+  const SceneLevel& finest = hierarchy.levels.back();
+  sys.prolongation = std::make_shared<ProlongationState>(*lv.to_finest_prolongation, stacked(lv.rest.V));
+  for (std::size_t o = 0; o < scene.objects.size(); ++o) {
+    const SceneObject& obj = scene.objects[o];
+    if (obj.obstacle) continue;
+    const int fine_offset = finest.vertex_offsets[o], coarse_offset = lv.vertex_offsets[o];
+    std::vector<std::unique_ptr<EnergyTerm>> fine_terms, coarse_terms;
+    Faces fine_faces = obj.rest.F;
+    fine_faces.array() += fine_offset;
+    add_shell_elasticity(obj, fine_faces, fine_offset, finest.rest.V, fine_terms);
+    if (options.hessian == ProlongedHessian::Coarse) {
+      const SceneObject& coarse_obj = at_level.objects[o];
+      Faces coarse_faces = coarse_obj.rest.F;
+      coarse_faces.array() += coarse_offset;
+      add_shell_elasticity(coarse_obj, coarse_faces, coarse_offset, lv.rest.V, coarse_terms);
+    }
+    for (std::size_t k = 0; k < fine_terms.size(); ++k)
+      sys.ip.add_term(std::make_unique<ProlongedTerm>(std::move(fine_terms[k]), sys.prolongation, options.hessian,
+                                                      k < coarse_terms.size() ? std::move(coarse_terms[k]) : nullptr));
+  }
+  return sys;
+}
+
+}  // namespace pd

@@ -1,0 +1,42 @@
+#pragma once
+// The discrete system of one level of a scene's hierarchy for Progressive Dynamics (PD eqs. 4 and 6):
+//
+//   1/(2h^2) ||x - xhat||^2_{M_l} + gravity, wind, pressure on level l + C_l(x) + Psi_L(P^l(x))
+//
+// Level l's own mesh carries the inertia (masses lumped on its rest shape), gravity, wind, pressure,
+// pins, obstacles, contact and strain limits (C_l: "the sum of remaining current level-l contact and
+// strain-limiting potentials"); the shell elasticity (membrane and bending) is the finest level's,
+// evaluated on the prolonged shape through P^l with frozen offsets (progressive/prolonged_term.h).
+// At the finest level P^L is the identity and the system is the plain one (build_scene_system).
+//
+// Why wind and pressure stay on level l rather than prolonged: the paper prolongs the shell elastics
+// only; wind and pressure act on the surface the level simulates, and a coarse closed surface's own
+// volume is what its pressure must keep (measured consequences: bench/, issue 5).
+//
+// Conventions: level 0 = coarsest, L = hierarchy.finest(); global vertex ids of the level (objects
+// stacked as in SceneLevel); stacked vectors x[3i + k] (m).
+#include <memory>
+
+#include "hierarchy/scene_hierarchy.h"
+#include "progressive/prolonged_term.h"
+#include "progressive/scene_system.h"
+#include "scene/scene.h"
+
+namespace pd {
+
+// The scene with every object replaced by its level-l mesh: rest shape, initial positions (level
+// rest + the finest initial displacement of the same vertex: level vertices are finest vertices,
+// so a posed start carries over vertex by vertex), pins mapped to the level's ids (pinned vertices
+// are kept at every level by the decimation). Level L gives the scene itself. Throws
+// std::invalid_argument for a level outside [0, L], or a pinned vertex missing from the level.
+Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int level);
+
+struct LevelSystemOptions {
+  ProlongedHessian hessian = ProlongedHessian::Galerkin;  // coarse levels only (see prolonged_term.h)
+};
+
+// Level l's system as above. `hierarchy` must outlive the system (its P^l is referenced).
+SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarchy, int level,
+                               const LevelSystemOptions& options = {});
+
+}  // namespace pd
