@@ -1,0 +1,93 @@
+#include "progressive/level_task.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace pd {
+
+namespace {
+
+void fail(const LevelTask& task, const std::string& what) {
+  throw std::invalid_argument("level task (level " + std::to_string(task.level) + ", frames (" +
+                              std::to_string(task.first) + ", " + std::to_string(task.last) + "]): " + what);
+}
+
+// The scene's initial velocity of every vertex of `level` (stacked, m/s): each object's uniform
+// initial_velocity (obstacles move by script and have none).
+Eigen::VectorXd initial_velocity(const Scene& scene, const SceneHierarchy& hierarchy, int level) {
+  const SceneLevel& lv = hierarchy.levels[static_cast<std::size_t>(level)];
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(3 * lv.rest.V.rows());
+  for (std::size_t o = 0; o < scene.objects.size(); ++o)
+    for (int i = lv.vertex_offsets[o]; i < lv.vertex_offsets[o + 1]; ++i)
+      v.segment<3>(3 * i) = scene.objects[o].obstacle ? Vec3::Zero() : scene.objects[o].initial_velocity;
+  return v;
+}
+
+}  // namespace
+
+LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hierarchy, const LevelTask& task,
+                                 const LevelTaskInputs& inputs, const std::function<void(const FrameRecord&)>& sink,
+                                 const LevelTaskOptions& options) {
+  const int l = task.level, a = task.first, b = task.last;
+  if (l < 0 || l > hierarchy.finest()) fail(task, "no such level (the hierarchy has " + std::to_string(hierarchy.num_levels()) + ")");
+  if (a < 0 || b <= a || b > scene.frames) fail(task, "needs 0 <= a < b <= " + std::to_string(scene.frames) + " (the scene's frames)");
+  if (l >= 1 && !inputs.below) fail(task, "a refinement level needs the frames of the level below");
+  const bool horizontal = inputs.own_before.has_value() && inputs.own_start.has_value();
+  if (inputs.own_before.has_value() != inputs.own_start.has_value()) fail(task, "own frames come in pairs (a-1 and a)");
+  if (l == 0 && a > 0 && !horizontal) fail(task, "the preview level continues only from its own frames a-1 and a");
+
+  SceneSystem sys = build_level_system(scene, hierarchy, l, options.system);
+  const Eigen::Index n = sys.x0.size();
+  const double h = scene.time_step;
+  LevelStepper stepper(sys, scene.solver, h);
+  LevelTaskReport report;
+
+  // Level l-1's frames, checked for size as they come.
+  const SceneLevel* below_level = l >= 1 ? &hierarchy.levels[static_cast<std::size_t>(l - 1)] : nullptr;
+  const Eigen::VectorXd below_v0 = l >= 1 ? initial_velocity(scene, hierarchy, l - 1) : Eigen::VectorXd();
+  const auto below = [&](int t) -> Eigen::VectorXd {
+    Eigen::VectorXd x = inputs.below(t < 0 ? 0 : t);
+    if (x.size() != 3 * below_level->rest.V.rows())
+      fail(task, "frame " + std::to_string(t) + " of level " + std::to_string(l - 1) + " has " +
+                     std::to_string(x.size() / 3) + " vertices, the level " + std::to_string(below_level->rest.V.rows()));
+    if (t < 0) x -= h * below_v0;  // x_{l-1}^{-1} from the initial velocity
+    return x;
+  };
+
+  // The start state (x_l^a, v_l^a).
+  Eigen::VectorXd x, v;
+  if (a == 0) {
+    x = sys.x0;
+    v = sys.v0;
+    sink(stepper.initial_frame());
+  } else if (horizontal) {
+    if (inputs.own_before->size() != n || inputs.own_start->size() != n)
+      fail(task, "the level's own frames need " + std::to_string(n / 3) + " vertices");
+    x = *inputs.own_start;
+    v = (*inputs.own_start - *inputs.own_before) / h;
+  } else {
+    const Eigen::VectorXd xa = below(a), xb = below(a - 1);
+    const UpsamplingLevel up = upsampling_level(scene, hierarchy, l - 1);
+    const Positions coarse = as_rows(xa);
+    x = stacked(safe_upsample(up, coarse, below_level->to_next->apply(coarse), options.upsampling, &report.upsampling));
+    v = below_level->to_next->U_stacked() * ((xa - xb) / h);
+    report.vertical_start = true;
+  }
+
+  Eigen::VectorXd x_hat;
+  for (int t = a; t < b; ++t) {
+    StepInput in;
+    if (l >= 1) {
+      // PD eq. 5: the momentum of level l-1, prolonged.
+      const Eigen::VectorXd now = below(t), before = below(t - 1);
+      x_hat = stacked(below_level->to_next->apply(as_rows(now))) + below_level->to_next->U_stacked() * (now - before);
+      in.inertia_target = &x_hat;
+    }
+    FrameRecord r = stepper.step(t, x, v, in);
+    if (!r.newton.converged) ++report.unconverged_steps;
+    sink(r);
+  }
+  return report;
+}
+
+}  // namespace pd
