@@ -21,6 +21,15 @@ int main(int argc, char** argv) {
   simulate->add_option("--frames", sim.frames, "Simulate this many frames instead of the scene's count")
       ->check(CLI::PositiveNumber);
   simulate->add_flag("--quiet,-q", sim.quiet, "No progress output");
+  simulate->add_option("--mode", sim.mode, "direct (plain implicit Euler) or progressive (preview, then refinement)")
+      ->check(CLI::IsMember({"direct", "progressive"}));
+  simulate->add_option("--level", sim.level, "direct: simulate this hierarchy level's mesh (0 = coarsest)")
+      ->check(CLI::NonNegativeNumber);
+  simulate->add_option("--levels", sim.levels, "Use this many hierarchy levels instead of the scene's")
+      ->check(CLI::PositiveNumber);
+  simulate->add_flag("--preview-only", sim.preview_only, "progressive: stop after the preview (level 0)");
+  simulate->add_option("--hessian", sim.hessian, "progressive: Hessian of the prolonged elasticity")
+      ->check(CLI::IsMember({"galerkin", "coarse"}));
 
   pd::cli::ExportArgs exp;
   auto* export_cmd = app.add_subcommand("export", "Write the frames of a frame file for other tools");

@@ -47,7 +47,7 @@ Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int le
 SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarchy, int level,
                                const LevelSystemOptions& options) {
   const Scene at_level = scene_at_level(scene, hierarchy, level);
-  if (level == hierarchy.finest()) return build_scene_system(at_level);
+  if (level == hierarchy.finest() || options.direct) return build_scene_system(at_level);
 
   SceneSystem sys = build_scene_system(at_level, /*own_elasticity=*/false);
   const SceneLevel& lv = hierarchy.levels[static_cast<std::size_t>(level)];

@@ -33,6 +33,9 @@ Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int le
 
 struct LevelSystemOptions {
   ProlongedHessian hessian = ProlongedHessian::Galerkin;  // coarse levels only (see prolonged_term.h)
+  // Direct simulation of the level (PD eq. 3): its own mesh's elasticity instead of the finest
+  // level's through P^l, for comparison with the progressive run.
+  bool direct = false;
 };
 
 // Level l's system as above. `hierarchy` must outlive the system (its P^l is referenced).

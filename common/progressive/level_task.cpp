@@ -31,10 +31,12 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
   const int l = task.level, a = task.first, b = task.last;
   if (l < 0 || l > hierarchy.finest()) fail(task, "no such level (the hierarchy has " + std::to_string(hierarchy.num_levels()) + ")");
   if (a < 0 || b <= a || b > scene.frames) fail(task, "needs 0 <= a < b <= " + std::to_string(scene.frames) + " (the scene's frames)");
-  if (l >= 1 && !inputs.below) fail(task, "a refinement level needs the frames of the level below");
+  // A direct simulation of a level (options.system.direct) steps like the preview: own momentum.
+  const bool refining = l >= 1 && !options.system.direct;
+  if (refining && !inputs.below) fail(task, "a refinement level needs the frames of the level below");
   const bool horizontal = inputs.own_before.has_value() && inputs.own_start.has_value();
   if (inputs.own_before.has_value() != inputs.own_start.has_value()) fail(task, "own frames come in pairs (a-1 and a)");
-  if (l == 0 && a > 0 && !horizontal) fail(task, "the preview level continues only from its own frames a-1 and a");
+  if (!refining && a > 0 && !horizontal) fail(task, "the preview (or a direct run) continues only from its own frames a-1 and a");
 
   SceneSystem sys = build_level_system(scene, hierarchy, l, options.system);
   const Eigen::Index n = sys.x0.size();
@@ -43,8 +45,8 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
   LevelTaskReport report;
 
   // Level l-1's frames, checked for size as they come.
-  const SceneLevel* below_level = l >= 1 ? &hierarchy.levels[static_cast<std::size_t>(l - 1)] : nullptr;
-  const Eigen::VectorXd below_v0 = l >= 1 ? initial_velocity(scene, hierarchy, l - 1) : Eigen::VectorXd();
+  const SceneLevel* below_level = refining ? &hierarchy.levels[static_cast<std::size_t>(l - 1)] : nullptr;
+  const Eigen::VectorXd below_v0 = refining ? initial_velocity(scene, hierarchy, l - 1) : Eigen::VectorXd();
   const auto below = [&](int t) -> Eigen::VectorXd {
     Eigen::VectorXd x = inputs.below(t < 0 ? 0 : t);
     if (x.size() != 3 * below_level->rest.V.rows())
@@ -77,7 +79,7 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
   Eigen::VectorXd x_hat;
   for (int t = a; t < b; ++t) {
     StepInput in;
-    if (l >= 1) {
+    if (refining) {
       // PD eq. 5: the momentum of level l-1, prolonged.
       const Eigen::VectorXd now = below(t), before = below(t - 1);
       x_hat = stacked(below_level->to_next->apply(as_rows(now))) + below_level->to_next->U_stacked() * (now - before);

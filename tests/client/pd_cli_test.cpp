@@ -271,6 +271,42 @@ TEST(PdCli, ExportProlongWithoutHierarchySaysToRunPdHierarchy) {
   EXPECT_NE(r.output.find("pd hierarchy"), std::string::npos) << r.output;
 }
 
+TEST(PdCli, SimulateProgressiveStoresEveryLevelAndPreviewOnlyStopsAfterLevelZero) {
+  const std::string dir = test::scratch_dir("cli_progressive");
+  const std::string scene = write_file(dir, "s.json", hierarchy_scene());
+  const CliResult r = run_pd("simulate " + scene + " --mode progressive --out " + dir + "/p.h5");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* line : {"level 0 (3 levels)", "level 1 (3 levels)", "level 2 (3 levels)"})
+    EXPECT_NE(r.output.find(line), std::string::npos) << line << " not in: " << r.output;
+  {
+    const FrameReader reader(dir + "/p.h5");
+    ASSERT_EQ(reader.num_levels(), 3);
+    for (int l = 0; l < 3; ++l) {
+      const std::vector<uint8_t> done = reader.done(l);
+      EXPECT_TRUE(std::all_of(done.begin(), done.end(), [](uint8_t d) { return d == 1; })) << "level " << l;
+    }
+    EXPECT_TRUE(read_hierarchy(dir + "/p.h5").has_value());
+  }
+  const CliResult preview = run_pd("simulate " + scene + " --mode progressive --preview-only --hessian coarse --out " +
+                                   dir + "/q.h5");
+  ASSERT_EQ(preview.exit_code, 0) << preview.output;
+  const FrameReader q(dir + "/q.h5");
+  EXPECT_EQ(q.done(0), std::vector<uint8_t>(4, 1));
+  EXPECT_EQ(q.done(1), std::vector<uint8_t>(4, 0));
+  // Direct simulation of the coarsest level, stored at its level of the hierarchy.
+  const CliResult direct = run_pd("simulate " + scene + " --mode direct --level 0 --out " + dir + "/d.h5");
+  ASSERT_EQ(direct.exit_code, 0) << direct.output;
+  const FrameReader d(dir + "/d.h5");
+  EXPECT_EQ(d.done(0), std::vector<uint8_t>(4, 1));
+  EXPECT_EQ(d.done(2), std::vector<uint8_t>(4, 0));
+  // Bad combinations and levels.
+  EXPECT_EQ(run_pd("simulate " + scene + " --preview-only --out " + dir + "/x.h5").exit_code, 2);
+  EXPECT_EQ(run_pd("simulate " + scene + " --mode sideways --out " + dir + "/x.h5").exit_code, 2);
+  const CliResult far = run_pd("simulate " + scene + " --mode direct --level 5 --out " + dir + "/x.h5");
+  EXPECT_EQ(far.exit_code, 2) << far.output;
+  EXPECT_NE(far.output.find("level 5"), std::string::npos) << far.output;
+}
+
 TEST(PdCli, HierarchyBadInputExitsWithCode2) {
   const std::string dir = test::scratch_dir("cli_hierarchy_bad");
   const std::string scene = write_file(dir, "s.json", hierarchy_scene());
