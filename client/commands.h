@@ -38,4 +38,11 @@ struct HierarchyArgs {
 };
 int hierarchy(const HierarchyArgs& args);
 
+struct CompareArgs {
+  std::string file;   // the reference is this file's finest level that holds frames
+  std::string other;  // optional second file (e.g. a direct run of the same scene)
+  std::string csv;    // CSV output; empty: FILE.compare.csv
+};
+int compare(const CompareArgs& args);
+
 }  // namespace pd::cli

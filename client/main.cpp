@@ -1,4 +1,4 @@
-// pd: the command-line client. Local commands (simulate, export, hierarchy) run in this process; the farm
+// pd: the command-line client. Local commands (simulate, export, hierarchy, compare) run in this process; the farm
 // commands (submit, status, ...) come with the scheduler.
 #include <cstdio>
 #include <exception>
@@ -49,6 +49,13 @@ int main(int argc, char** argv) {
       ->required();
   hierarchy->add_flag("--json", hier.json, "Print one JSON object instead of text lines");
 
+  pd::cli::CompareArgs cmp;
+  auto* compare = app.add_subcommand(
+      "compare", "Centre-of-mass consistency between the levels of one or two frame files (prints, writes CSV)");
+  compare->add_option("file", cmp.file, "Frame file; its finest level with frames is the reference")->required();
+  compare->add_option("other", cmp.other, "A second frame file of the same scene (e.g. a direct run)");
+  compare->add_option("--csv", cmp.csv, "CSV file to write (default FILE.compare.csv)");
+
   if (argc < 2) {  // bare `pd`: show what it can do, and fail (nothing was done)
     std::fputs(app.help().c_str(), stderr);
     return 2;
@@ -66,6 +73,7 @@ int main(int argc, char** argv) {
     if (*simulate) return pd::cli::simulate(sim);
     if (*export_cmd) return pd::cli::export_frames(exp);
     if (*hierarchy) return pd::cli::hierarchy(hier);
+    if (*compare) return pd::cli::compare(cmp);
   } catch (const pd::InputError& e) {
     std::fprintf(stderr, "pd: error: %s\n", e.what());
     return 2;

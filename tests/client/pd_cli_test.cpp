@@ -307,6 +307,24 @@ TEST(PdCli, SimulateProgressiveStoresEveryLevelAndPreviewOnlyStopsAfterLevelZero
   EXPECT_NE(far.output.find("level 5"), std::string::npos) << far.output;
 }
 
+TEST(PdCli, CompareReportsEachLevelAgainstTheFinestAndWritesCsv) {
+  const std::string dir = test::scratch_dir("cli_compare");
+  const std::string scene = write_file(dir, "s.json", hierarchy_scene());
+  ASSERT_EQ(run_pd("simulate " + scene + " --mode progressive --out " + dir + "/p.h5").exit_code, 0);
+  ASSERT_EQ(run_pd("simulate " + scene + " --mode direct --level 0 --out " + dir + "/d.h5").exit_code, 0);
+  const CliResult r = run_pd("compare " + dir + "/p.h5 " + dir + "/d.h5 --csv " + dir + "/c.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("reference: " + dir + "/p.h5 level 2"), std::string::npos) << r.output;
+  std::ifstream csv(dir + "/c.csv");
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line.rfind("file,level,frame,time_s,kinetic_energy_J,com_deviation_m,com_sheet_x", 0), 0u) << line;
+  int rows = 0;
+  while (std::getline(csv, line)) ++rows;
+  EXPECT_EQ(rows, 3 * 4 + 4);  // three progressive levels and one direct level, frames 0..3
+  EXPECT_EQ(run_pd("compare " + dir + "/missing.h5").exit_code, 2);
+}
+
 TEST(PdCli, HierarchyBadInputExitsWithCode2) {
   const std::string dir = test::scratch_dir("cli_hierarchy_bad");
   const std::string scene = write_file(dir, "s.json", hierarchy_scene());
