@@ -1,0 +1,152 @@
+// Speed against consistency of Progressive Dynamics on scene files (issue 5's benchmark): for each
+// scene, the progressive run (preview, then every refinement level, as `pd simulate --mode
+// progressive`) and direct simulation of the coarsest and the finest level (`--mode direct
+// --level`), all in this process, frames kept in memory.
+//
+// Per level: vertices, seconds per step, Newton iterations per step, and the max / mean
+// centre-of-mass deviation from the finest level of the same kind of run (sum over simulated
+// objects, as `pd compare`). Per scene: preview speed-up over direct finest (direct finest s/step
+// over preview s/step; the paper reports 21x-75x on its scenes), preview overhead over direct
+// coarsest (preview s/step over direct coarsest s/step; the paper: about 2x), and the coarsest-vs-
+// finest deviation of both kinds of run with their ratio.
+//
+//   pd_bench_progressive                                   # the default scenes below
+//   pd_bench_progressive scenes/flag.json --frames 100     # given scenes, fewer frames
+//   --levels N      override every scene's hierarchy.levels
+//   --hessian galerkin|coarse
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "progressive/level_task.h"
+#include "scene/scene_file.h"
+#include "store/frame_store.h"
+#include "util/process_setup.h"
+
+using namespace pd;
+
+namespace {
+
+struct LevelRun {
+  int level = 0;
+  int vertices = 0;
+  double seconds = 0.0;  // wall time of the level's task, s
+  long newton = 0;       // Newton iterations over all steps
+  int unconverged = 0;
+  std::map<int, Eigen::VectorXd> x;
+  std::map<int, ObjectPoints> com;
+};
+
+LevelRun solve(const Scene& scene, const SceneHierarchy& h, int level, const LevelRun* below, bool direct,
+               const LevelTaskOptions& base) {
+  LevelRun run;
+  run.level = level;
+  run.vertices = static_cast<int>(h.levels[static_cast<std::size_t>(level)].rest.V.rows());
+  LevelTaskInputs in;
+  if (below) in.below = [below](int t) { return below->x.at(t); };
+  LevelTaskOptions opt = base;
+  opt.system.direct = direct;
+  const auto t0 = std::chrono::steady_clock::now();
+  const LevelTaskReport r = solve_level_task(scene, h, {level, 0, scene.frames}, in, [&](const FrameRecord& f) {
+    run.x[f.frame] = f.x;
+    run.com[f.frame] = f.center_of_mass;
+    run.newton += f.newton.iterations;
+  }, opt);
+  run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  run.unconverged = r.unconverged_steps;
+  return run;
+}
+
+// max and mean over frames of the summed distance between simulated objects' centres of mass (m).
+std::pair<double, double> deviation(const Scene& scene, const LevelRun& a, const LevelRun& b) {
+  double worst = 0.0, sum = 0.0;
+  for (const auto& [t, com] : a.com) {
+    double d = 0.0;
+    for (std::size_t k = 0; k < scene.objects.size(); ++k)
+      if (!scene.objects[k].obstacle)
+        d += (com.row(static_cast<Eigen::Index>(k)) - b.com.at(t).row(static_cast<Eigen::Index>(k))).norm();
+    worst = std::max(worst, d);
+    sum += d;
+  }
+  return {worst, sum / static_cast<double>(a.com.size())};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  limit_openmp_threads(argv);
+  std::vector<std::string> files;
+  int frames = -1, levels = -1;
+  LevelTaskOptions options;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--frames" && i + 1 < argc) {
+      frames = std::atoi(argv[++i]);
+    } else if (a == "--levels" && i + 1 < argc) {
+      levels = std::atoi(argv[++i]);
+    } else if (a == "--hessian" && i + 1 < argc) {
+      const std::string h = argv[++i];
+      options.system.hessian = h == "coarse" ? ProlongedHessian::Coarse : ProlongedHessian::Galerkin;
+    } else {
+      files.push_back(a);
+    }
+  }
+  if (files.empty()) files = {"scenes/cube-trampoline.json", "scenes/flag.json", "scenes/spin-sphere.json"};
+
+  std::vector<std::string> level_rows, scene_rows;
+  for (const std::string& file : files) {
+    Scene scene = load_scene(file);
+    if (frames >= 1) scene.frames = frames;
+    if (levels >= 1) scene.hierarchy.levels = levels;
+    const auto t0 = std::chrono::steady_clock::now();
+    const SceneHierarchy h = build_scene_hierarchy(scene);
+    const double build = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const int L = h.finest();
+    std::printf("%s: %d levels, %d frames, hierarchy %.2f s\n", scene.name.c_str(), L + 1, scene.frames, build);
+    std::fflush(stdout);
+    std::vector<LevelRun> progressive;
+    for (int l = 0; l <= L; ++l) {
+      progressive.push_back(solve(scene, h, l, l > 0 ? &progressive.back() : nullptr, false, options));
+      const LevelRun& r = progressive.back();
+      std::printf("  progressive level %d: %d vertices, %.3f s/step, %.1f Newton its/step, %d unconverged\n", l,
+                  r.vertices, r.seconds / scene.frames, double(r.newton) / scene.frames, r.unconverged);
+      std::fflush(stdout);
+    }
+    const LevelRun d0 = solve(scene, h, 0, nullptr, true, options);
+    const LevelRun dL = solve(scene, h, L, nullptr, true, options);
+    const auto row = [&](const char* kind, const LevelRun& r, const LevelRun& finest) {
+      const auto [worst, mean] = deviation(scene, r, finest);
+      char buf[512];
+      std::snprintf(buf, sizeof buf, "| %s | %s | %d | %d | %.4f | %.1f | %d | %.4g / %.4g |", scene.name.c_str(), kind,
+                    r.level, r.vertices, r.seconds / scene.frames, double(r.newton) / scene.frames, r.unconverged,
+                    1e3 * worst, 1e3 * mean);
+      level_rows.push_back(buf);
+    };
+    for (const LevelRun& r : progressive) row("progressive", r, progressive.back());
+    row("direct", d0, dL);
+    row("direct", dL, dL);
+    const double preview = progressive.front().seconds;
+    const double prog_dev = deviation(scene, progressive.front(), progressive.back()).first;
+    const double direct_dev = deviation(scene, d0, dL).first;
+    const double prog_dev_finest_direct = deviation(scene, progressive.back(), dL).first;
+    char buf[512];
+    std::snprintf(buf, sizeof buf, "| %s | %d | %.2f | %.1fx | %.2fx | %.4g | %.4g | %.1fx | %.4g |", scene.name.c_str(),
+                  scene.frames, build, dL.seconds / preview, preview / d0.seconds, 1e3 * prog_dev, 1e3 * direct_dev,
+                  direct_dev / prog_dev, 1e3 * prog_dev_finest_direct);
+    scene_rows.push_back(buf);
+  }
+  std::printf("\n| scene | run | level | vertices | s/step | Newton its/step | unconverged steps | centre-of-mass "
+              "deviation from the same run's finest level, max / mean (mm) |\n| --- | --- | ---: | ---: | ---: | ---: "
+              "| ---: | --- |\n");
+  for (const std::string& r : level_rows) std::printf("%s\n", r.c_str());
+  std::printf("\n| scene | frames | hierarchy s | preview speed-up over direct finest | preview / direct coarsest | "
+              "coarsest-vs-finest deviation, progressive (mm) | the same, direct (mm) | direct / progressive | "
+              "progressive finest vs direct finest (mm) |\n| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
+  for (const std::string& r : scene_rows) std::printf("%s\n", r.c_str());
+  return 0;
+}
