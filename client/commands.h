@@ -10,10 +10,10 @@ struct SimulateArgs {
   std::string out;
   int frames = -1;     // override of the scene's frame count
   bool quiet = false;
-  // "direct" (default): plain implicit Euler; without `level` on the finest mesh as given, stored as
-  // level 0 with no hierarchy; with `level` on that hierarchy level's mesh, stored with the
-  // hierarchy. "progressive": PD's preview then every refinement level.
-  std::string mode = "direct";
+  // "direct": plain implicit Euler; without `level` on the finest mesh as given, stored as level 0
+  // with no hierarchy; with `level` on that hierarchy level's mesh, stored with the hierarchy.
+  // "progressive": PD's preview then every refinement level. Empty: the scene's "mode" key.
+  std::string mode;
   int level = -1;           // direct: the hierarchy level to simulate (0 = coarsest)
   int levels = -1;          // override of the scene's hierarchy.levels
   bool preview_only = false;  // progressive: stop after level 0

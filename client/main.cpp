@@ -21,7 +21,8 @@ int main(int argc, char** argv) {
   simulate->add_option("--frames", sim.frames, "Simulate this many frames instead of the scene's count")
       ->check(CLI::PositiveNumber);
   simulate->add_flag("--quiet,-q", sim.quiet, "No progress output");
-  simulate->add_option("--mode", sim.mode, "direct (plain implicit Euler) or progressive (preview, then refinement)")
+  simulate->add_option("--mode", sim.mode,
+                       "direct (plain implicit Euler) or progressive (preview, then refinement); default: the scene's \"mode\"")
       ->check(CLI::IsMember({"direct", "progressive"}));
   simulate->add_option("--level", sim.level, "direct: simulate this hierarchy level's mesh (0 = coarsest)")
       ->check(CLI::NonNegativeNumber);

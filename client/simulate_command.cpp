@@ -63,8 +63,10 @@ int simulate_levels(const SimulateArgs& args, Scene scene) {
 
 }  // namespace
 
-int simulate(const SimulateArgs& args) {
-  const Scene scene = load_scene(args.scene);
+int simulate(const SimulateArgs& given) {
+  const Scene scene = load_scene(given.scene);
+  SimulateArgs args = given;
+  if (args.mode.empty()) args.mode = scene.progressive ? "progressive" : "direct";
   if (args.mode == "progressive" || args.level >= 0 || args.levels >= 1) return simulate_levels(args, scene);
   if (args.preview_only) throw InputError("simulate: --preview-only needs --mode progressive");
   const int frames = args.frames >= 1 ? args.frames : scene.frames;

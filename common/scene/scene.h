@@ -158,6 +158,9 @@ struct Scene {
   std::optional<Ground> ground;          // requires contact
   SolverSettings solver;
   HierarchyConfig hierarchy;
+  // How `pd simulate SCENE` runs the scene when no --mode is given (docs/scene-format.md, "mode"):
+  // false = direct simulation of the meshes as given, true = progressive (preview, then refinement).
+  bool progressive = false;
   std::vector<SceneObject> objects;
 };
 

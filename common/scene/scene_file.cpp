@@ -497,7 +497,7 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
   const JsonNode root(doc, "", file);
   check_format_version(root);
   root.expect_keys({"format_version", "name", "description", "time_step", "frames", "gravity", "solver", "wind",
-                    "contact", "ground", "hierarchy", "objects"});
+                    "contact", "ground", "hierarchy", "mode", "objects"});
 
   Scene scene;
   scene.source_path = path_for_messages;
@@ -514,6 +514,7 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
   if (auto g = root.optional("gravity")) scene.gravity = g->vec3();
   if (auto s = root.optional("solver")) scene.solver = read_solver(*s);
   if (auto w = root.optional("wind")) scene.wind = read_wind(*w);
+  if (auto m = root.optional("mode")) scene.progressive = m->choice({"direct", "progressive"}, "mode") == "progressive";
 
   JsonNode objects = root.required("objects");
   std::vector<JsonNode> list = objects.elements();

@@ -307,6 +307,27 @@ TEST(PdCli, SimulateProgressiveStoresEveryLevelAndPreviewOnlyStopsAfterLevelZero
   EXPECT_NE(far.output.find("level 5"), std::string::npos) << far.output;
 }
 
+TEST(PdCli, SceneModeProgressiveRunsProgressivelyWithoutFlagsAndABadModeNamesTheKey) {
+  const std::string dir = test::scratch_dir("cli_mode");
+  std::string text = hierarchy_scene();
+  text.insert(text.find("\"hierarchy\""), "\"mode\": \"progressive\", ");
+  const std::string scene = write_file(dir, "s.json", text);
+  const CliResult r = run_pd("simulate " + scene + " --out " + dir + "/p.h5");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const FrameReader reader(dir + "/p.h5");
+  ASSERT_EQ(reader.num_levels(), 3);
+  EXPECT_EQ(reader.done(2), std::vector<uint8_t>(4, 1));
+  // --mode direct still wins: the scene's meshes as given, one level.
+  ASSERT_EQ(run_pd("simulate " + scene + " --mode direct --out " + dir + "/d.h5").exit_code, 0);
+  EXPECT_EQ(FrameReader(dir + "/d.h5").num_levels(), 1);
+
+  std::string bad = hierarchy_scene();
+  bad.insert(bad.find("\"hierarchy\""), "\"mode\": \"fast\", ");
+  const CliResult b = run_pd("simulate " + write_file(dir, "bad.json", bad) + " --out " + dir + "/b.h5");
+  EXPECT_EQ(b.exit_code, 2) << b.output;
+  EXPECT_NE(b.output.find("mode"), std::string::npos) << b.output;
+}
+
 TEST(PdCli, CompareReportsEachLevelAgainstTheFinestAndWritesCsv) {
   const std::string dir = test::scratch_dir("cli_compare");
   const std::string scene = write_file(dir, "s.json", hierarchy_scene());
