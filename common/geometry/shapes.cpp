@@ -250,38 +250,73 @@ TriMesh make_box(const Vec3& size, int cells) {
   return to_mesh(points, faces);
 }
 
-TriMesh make_cylinder(double radius, double height, int segments, int rings, bool capped) {
-  require(positive_finite(radius) && positive_finite(height), "make_cylinder", "radius and height must be > 0");
-  require(segments >= 3 && rings >= 1, "make_cylinder", "segments must be >= 3 and rings >= 1");
-  require_fits(segments * (rings + 1.0L) + 2, 2.0L * segments * (rings + 1), "make_cylinder");
+namespace {
 
+// Prism around the y axis from y = -height/2 to +height/2: `segments` outline points around,
+// point s at angle theta = 2 pi s / segments and distance radius_of(s) (metres) from the axis,
+// repeated on `rings` + 1 levels. Vertex (s, r) has index r * segments + s; the bottom centre (if
+// `bottom_cap`) and then the top centre (if `top_cap`) follow. The outline must be star-shaped
+// around the axis (theta increasing, radius > 0) so the cap fans are valid and all normals point out.
+// One construction for cylinder, cup and gear keeps their indexing and winding identical.
+template <class Radius>
+TriMesh make_prism(double height, int segments, int rings, bool bottom_cap, bool top_cap, Radius radius_of) {
   // Angle theta runs around y with x = r cos(theta), z = -r sin(theta): then d/dtheta x d/dy points
   // outward, so quads counter-clockwise in (theta, y) have outward normals.
   const double two_pi = 2.0 * std::acos(-1.0);
   std::vector<Vec3> points;
+  points.reserve(static_cast<std::size_t>(segments) * (rings + 1) + 2);
   for (int r = 0; r <= rings; ++r) {
     const double y = lerp_centred(height, r, rings);
     for (int s = 0; s < segments; ++s) {
       const double theta = two_pi * s / segments;
+      const double radius = radius_of(s);
       points.emplace_back(radius * std::cos(theta), y, -radius * std::sin(theta));
     }
   }
   auto at = [segments](int s, int r) { return r * segments + s % segments; };  // wraps around
   std::vector<std::array<int, 3>> faces;
+  faces.reserve(2 * static_cast<std::size_t>(segments) * (rings + 1));
   for (int r = 0; r < rings; ++r)
     for (int s = 0; s < segments; ++s)
       add_quad(faces, at(s, r), at(s + 1, r), at(s + 1, r + 1), at(s, r + 1), (s + r) % 2 == 1);
-  if (capped) {
-    const int bottom = static_cast<int>(points.size());
-    points.emplace_back(0.0, -0.5 * height, 0.0);
-    const int top = bottom + 1;
-    points.emplace_back(0.0, 0.5 * height, 0.0);
-    for (int s = 0; s < segments; ++s) {
-      faces.push_back({bottom, at(s + 1, 0), at(s, 0)});        // normal -y
-      faces.push_back({top, at(s, rings), at(s + 1, rings)});   // normal +y
-    }
+  const int bottom = static_cast<int>(points.size());
+  if (bottom_cap) points.emplace_back(0.0, -0.5 * height, 0.0);
+  const int top = static_cast<int>(points.size());
+  if (top_cap) points.emplace_back(0.0, 0.5 * height, 0.0);
+  // Bottom and top fan triangles interleave per segment (the face order make_cylinder always had).
+  for (int s = 0; s < segments; ++s) {
+    if (bottom_cap) faces.push_back({bottom, at(s + 1, 0), at(s, 0)});  // normal -y
+    if (top_cap) faces.push_back({top, at(s, rings), at(s + 1, rings)});  // normal +y
   }
   return to_mesh(points, faces);
+}
+
+}  // namespace
+
+TriMesh make_cylinder(double radius, double height, int segments, int rings, bool capped) {
+  require(positive_finite(radius) && positive_finite(height), "make_cylinder", "radius and height must be > 0");
+  require(segments >= 3 && rings >= 1, "make_cylinder", "segments must be >= 3 and rings >= 1");
+  require_fits(segments * (rings + 1.0L) + 2, 2.0L * segments * (rings + 1), "make_cylinder");
+  return make_prism(height, segments, rings, capped, capped, [radius](int) { return radius; });
+}
+
+TriMesh make_cup(double radius, double height, int segments, int rings) {
+  require(positive_finite(radius) && positive_finite(height), "make_cup", "radius and height must be > 0");
+  require(segments >= 3 && rings >= 1, "make_cup", "segments must be >= 3 and rings >= 1");
+  require_fits(segments * (rings + 1.0L) + 1, segments * (2.0L * rings + 1), "make_cup");
+  return make_prism(height, segments, rings, true, false, [radius](int) { return radius; });
+}
+
+TriMesh make_gear(double radius, double root_radius, int teeth, double thickness) {
+  require(positive_finite(radius) && positive_finite(root_radius) && positive_finite(thickness), "make_gear",
+          "radius, root_radius and thickness must be > 0");
+  require(root_radius < radius, "make_gear", "root_radius must be < radius");
+  require(teeth >= 3, "make_gear", "teeth must be >= 3");
+  require_fits(8.0L * teeth + 2, 16.0L * teeth, "make_gear");
+  // Outline point s belongs to tooth s / 4; within a tooth, points 0 and 3 (root start and end) sit
+  // on the root circle and points 1 and 2 (tip start and end) on the tip circle.
+  return make_prism(thickness, 4 * teeth, 1, true, true,
+                    [radius, root_radius](int s) { return s % 4 == 1 || s % 4 == 2 ? radius : root_radius; });
 }
 
 }  // namespace pd

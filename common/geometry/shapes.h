@@ -39,6 +39,22 @@ TriMesh make_box(const Vec3& size, int cells);
 // 2 * segments * rings (+ 2 * segments if capped) faces. segments >= 3, rings >= 1.
 TriMesh make_cylinder(double radius, double height, int segments, int rings, bool capped);
 
+// Cup: make_cylinder's wall (same vertex indexing) closed at the bottom (y = -height/2) by a triangle
+// fan around a centre vertex, which is the last vertex, and open at the top. One consistently oriented
+// surface whose normals point away from the axis on the wall and along -y on the bottom; its only
+// boundary is the rim at y = +height/2. segments * (rings + 1) + 1 vertices,
+// 2 * segments * rings + segments faces. segments >= 3, rings >= 1.
+TriMesh make_cup(double radius, double height, int segments, int rings);
+
+// Closed spur-gear-like prism around the y axis from y = -thickness/2 to +thickness/2 (a sharp
+// obstacle). The outline in the x-z plane has 4 * teeth points at angles theta = 2 pi s / (4 teeth)
+// (x = rho cos(theta), z = -rho sin(theta)); tooth t owns s = 4t .. 4t + 3: root start, tip start, tip
+// end, root end, with rho = root_radius at the root points and radius at the tip points. Vertex s of
+// the bottom outline has index s, of the top outline 4 * teeth + s; the bottom and top centres are
+// 8 * teeth and 8 * teeth + 1, and the caps are triangle fans around them. Outward normals.
+// 8 * teeth + 2 vertices, 16 * teeth faces. teeth >= 3, 0 < root_radius < radius, thickness > 0.
+TriMesh make_gear(double radius, double root_radius, int teeth, double thickness);
+
 // Rectangle in the x-y plane (z = 0), width along x, height along y, meshed with near-equilateral
 // triangles, normals along +z. The cell (triangle side) is c = width / cells_x. Rows of vertices
 // run along x; the number of row gaps is rows = max(1, round(height / (sqrt(3)/2 * c))) and the gaps

@@ -92,7 +92,7 @@ int as_int(long long v) { return static_cast<int>(v); }
 
 TriMesh read_mesh(const JsonNode& mesh, const std::string& base_dir) {
   const std::string type = mesh.required("type").choice(
-      {"rectangle", "rectangle_equilateral", "icosphere", "box", "cylinder", "obj"}, "mesh type");
+      {"rectangle", "rectangle_equilateral", "icosphere", "box", "cylinder", "cup", "gear", "obj"}, "mesh type");
   if (type == "rectangle") {
     mesh.expect_keys({"type", "size", "cells", "diagonals"});
     auto size = mesh.required("size").elements(2);
@@ -146,6 +146,29 @@ TriMesh read_mesh(const JsonNode& mesh, const std::string& base_dir) {
     bool capped = capped_node ? capped_node->boolean() : false;
     check_vertex_budget(rings_node, segments * (rings + 1) + (capped ? 2 : 0));
     return generate(mesh, [&] { return make_cylinder(r, h, as_int(segments), as_int(rings), capped); });
+  }
+  if (type == "cup") {
+    mesh.expect_keys({"type", "radius", "height", "segments", "rings"});
+    double r = mesh.required("radius").positive();
+    double h = mesh.required("height").positive();
+    long long segments = mesh.required("segments").integer(3, 100000);
+    JsonNode rings_node = mesh.required("rings");
+    long long rings = rings_node.integer(1, 100000);
+    check_vertex_budget(rings_node, segments * (rings + 1) + 1);
+    return generate(mesh, [&] { return make_cup(r, h, as_int(segments), as_int(rings)); });
+  }
+  if (type == "gear") {
+    mesh.expect_keys({"type", "radius", "root_radius", "teeth", "thickness"});
+    double r = mesh.required("radius").positive();
+    JsonNode root_node = mesh.required("root_radius");
+    double root = root_node.positive();
+    // Checked here rather than left to make_gear so the message names the key.
+    if (!(root < r)) root_node.fail_got("must be < radius (" + format_number(r) + ")");
+    JsonNode teeth_node = mesh.required("teeth");
+    long long teeth = teeth_node.integer(3, 100000);
+    double thickness = mesh.required("thickness").positive();
+    check_vertex_budget(teeth_node, 8 * teeth + 2);
+    return generate(mesh, [&] { return make_gear(r, root, as_int(teeth), thickness); });
   }
   mesh.expect_keys({"type", "path"});
   JsonNode path = mesh.required("path");
@@ -363,7 +386,7 @@ Pressure read_pressure(const JsonNode& node, const TriMesh& rest, const Position
     int boundary = 0;
     for (int count : topo.edge_face_count) boundary += (count == 1);
     node.fail("needs a closed mesh, but the object's mesh has " + std::to_string(boundary) +
-              " boundary edges (use a closed mesh: icosphere, box, capped cylinder, or a closed OBJ)");
+              " boundary edges (use a closed mesh: icosphere, box, capped cylinder, gear, or a closed OBJ)");
   }
   // The pressure potential needs outward normals (positive enclosed volume); an inward-oriented
   // OBJ would otherwise suck the shell in.

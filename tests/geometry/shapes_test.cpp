@@ -317,6 +317,94 @@ TEST(Cylinder, OpenTubeHasTwoBoundaryRingsAndOutwardNormals) {
   }
 }
 
+// ---- cup -------------------------------------------------------------------------------------------
+
+TEST(Cup, CountsIndexingAndBottomCentre) {
+  const int seg = 12, rings = 3;
+  const double r = 0.4, h = 1.5;
+  const TriMesh m = make_cup(r, h, seg, rings);
+  EXPECT_EQ(m.num_vertices(), seg * (rings + 1) + 1);
+  EXPECT_EQ(m.num_faces(), 2 * seg * rings + seg);
+  // Same wall as make_cylinder; the bottom centre is the last vertex.
+  const TriMesh tube = make_cylinder(r, h, seg, rings, false);
+  EXPECT_EQ(m.V.topRows(tube.num_vertices()), tube.V);
+  EXPECT_EQ(m.F.topRows(tube.num_faces()), tube.F);
+  EXPECT_EQ(vertex(m, seg * (rings + 1)), Vec3(0.0, -0.5 * h, 0.0));
+}
+
+TEST(Cup, OnlyTheRimIsBoundaryAndNormalsPointOut) {
+  const int seg = 10, rings = 2;
+  const double h = 1.0;
+  const TriMesh m = make_cup(0.5, h, seg, rings);
+  EXPECT_NO_THROW(validate_mesh(m, "cup"));  // manifold, consistently oriented, no zero-area face
+  const Topology t = build_topology(m);
+  EXPECT_FALSE(t.closed());
+  int boundary_edges = 0;
+  for (std::size_t e = 0; e < t.edges.size(); ++e) {
+    EXPECT_TRUE(t.edge_face_count[e] == 1 || t.edge_face_count[e] == 2);
+    if (t.edge_face_count[e] != 1) continue;
+    ++boundary_edges;
+    EXPECT_EQ(m.V(t.edges[e][0], 1), 0.5 * h) << "boundary edge off the rim";
+    EXPECT_EQ(m.V(t.edges[e][1], 1), 0.5 * h) << "boundary edge off the rim";
+  }
+  EXPECT_EQ(boundary_edges, seg);
+  EXPECT_EQ(euler_characteristic(m), 1);  // a disc
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const Vec3 n = face_normal(m, f), c = centroid(m, f);
+    EXPECT_GT(n.norm(), 1e-6) << "face " << f;
+    if (f < 2 * seg * rings) EXPECT_GT(n.dot(Vec3(c.x(), 0.0, c.z())), 0.0) << "wall face " << f;
+    else EXPECT_LT(n.y(), 0.0) << "bottom face " << f;
+  }
+}
+
+// ---- gear ------------------------------------------------------------------------------------------
+
+TEST(Gear, CountsAndOutlineRadii) {
+  const double tip = 0.5, root = 0.35, t = 0.1;
+  for (int teeth : {3, 8, 20}) {
+    const TriMesh m = make_gear(tip, root, teeth, t);
+    EXPECT_EQ(m.num_vertices(), 8 * teeth + 2) << "teeth=" << teeth;
+    EXPECT_EQ(m.num_faces(), 16 * teeth) << "teeth=" << teeth;
+    const int n = 4 * teeth;
+    for (int level = 0; level < 2; ++level)
+      for (int s = 0; s < n; ++s) {
+        const Vec3 p = vertex(m, level * n + s);
+        const bool at_tip = s % 4 == 1 || s % 4 == 2;
+        EXPECT_NEAR(std::hypot(p.x(), p.z()), at_tip ? tip : root, 1e-15) << "s=" << s;
+        EXPECT_NEAR(std::atan2(-p.z(), p.x()), std::remainder(2.0 * kPi * s / n, 2.0 * kPi), 1e-12) << "s=" << s;
+        EXPECT_EQ(p.y(), level == 0 ? -0.5 * t : 0.5 * t);
+      }
+    EXPECT_EQ(vertex(m, 2 * n), Vec3(0.0, -0.5 * t, 0.0));
+    EXPECT_EQ(vertex(m, 2 * n + 1), Vec3(0.0, 0.5 * t, 0.0));
+  }
+}
+
+TEST(Gear, ClosedOutwardManifoldWithPrismVolume) {
+  const double tip = 0.5, root = 0.35, t = 0.1;
+  const int teeth = 12;
+  const TriMesh m = make_gear(tip, root, teeth, t);
+  EXPECT_NO_THROW(validate_mesh(m, "gear"));  // no zero-area face, manifold, consistent
+  EXPECT_TRUE(closed_and_consistently_oriented(m));
+  const Topology topo = build_topology(m);
+  EXPECT_TRUE(topo.closed());
+  for (int c : topo.edge_face_count) EXPECT_EQ(c, 2);
+  EXPECT_EQ(euler_characteristic(m), 2);
+  // Outline triangles (centre, s, s+1) span 2 pi / (4 teeth); per tooth the radius pairs are
+  // (root, tip), (tip, tip), (tip, root), (root, root), so the outline area is
+  // teeth/2 sin(2 pi / (4 teeth)) (tip + root)^2.
+  const double area = 0.5 * teeth * std::sin(2.0 * kPi / (4 * teeth)) * (tip + root) * (tip + root);
+  EXPECT_NEAR(signed_volume(m), area * t, 1e-14);
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const Vec3 n = face_normal(m, f), c = centroid(m, f);
+    EXPECT_GT(n.norm(), 1e-6) << "face " << f;
+    if (std::abs(n.y()) > 1e-12 * n.norm()) {
+      EXPECT_GT(n.y() * c.y(), 0.0) << "cap face " << f;  // caps face away from the mid-plane
+    } else {
+      EXPECT_GT(n.dot(Vec3(c.x(), 0.0, c.z())), 0.0) << "side face " << f;  // sides face away from the axis
+    }
+  }
+}
+
 TEST(Shapes, InvalidArgumentsThrow) {
   EXPECT_THROW(make_rectangle(0.0, 1.0, 2, 2), std::invalid_argument);
   EXPECT_THROW(make_rectangle(1.0, 1.0, 0, 2), std::invalid_argument);
@@ -324,6 +412,15 @@ TEST(Shapes, InvalidArgumentsThrow) {
   EXPECT_THROW(make_icosphere(1.0, -1), std::invalid_argument);
   EXPECT_THROW(make_box(Vec3(1.0, -1.0, 1.0), 1), std::invalid_argument);
   EXPECT_THROW(make_cylinder(1.0, 1.0, 2, 1, true), std::invalid_argument);
+  EXPECT_THROW(make_cup(1.0, 0.0, 8, 1), std::invalid_argument);
+  EXPECT_THROW(make_cup(1.0, 1.0, 2, 1), std::invalid_argument);
+  EXPECT_THROW(make_cup(1.0, 1.0, 8, 0), std::invalid_argument);
+  EXPECT_THROW(make_gear(1.0, 0.5, 2, 0.1), std::invalid_argument);    // too few teeth
+  EXPECT_THROW(make_gear(1.0, 1.0, 8, 0.1), std::invalid_argument);    // root_radius == radius
+  EXPECT_THROW(make_gear(1.0, 1.5, 8, 0.1), std::invalid_argument);    // root_radius > radius
+  EXPECT_THROW(make_gear(1.0, 0.0, 8, 0.1), std::invalid_argument);    // root_radius == 0
+  EXPECT_THROW(make_gear(1.0, 0.5, 8, -0.1), std::invalid_argument);   // negative thickness
+  EXPECT_THROW(make_gear(std::nan(""), 0.5, 8, 0.1), std::invalid_argument);
 }
 
 }  // namespace

@@ -206,6 +206,45 @@ TEST(SceneFile, EveryMeshTypeBuildsAValidMesh) {
   }
 }
 
+TEST(SceneFile, GearAndCupObstaclesParseAndBadKeysAreNamed) {
+  // The sheet drapes over a gear and falls into a cup: both fixed obstacles.
+  json s = valid_scene();
+  s["contact"] = {{"dhat", 1e-3}};
+  s["objects"].push_back(json::parse(R"({"name": "gear", "obstacle": true,
+    "mesh": {"type": "gear", "radius": 0.3, "root_radius": 0.25, "teeth": 10, "thickness": 0.05},
+    "transform": {"translation": [0, -2, 0]}})"));
+  s["objects"].push_back(json::parse(R"({"name": "cup", "obstacle": true,
+    "mesh": {"type": "cup", "radius": 0.4, "height": 0.3, "segments": 16, "rings": 2},
+    "transform": {"translation": [0, -3, 0]}})"));
+  const Scene scene = parse(s);
+  ASSERT_EQ(scene.objects.size(), 3u);
+  EXPECT_TRUE(scene.objects[1].obstacle);
+  EXPECT_EQ(scene.objects[1].rest.num_vertices(), 8 * 10 + 2);
+  EXPECT_EQ(scene.objects[1].rest.num_faces(), 16 * 10);
+  EXPECT_TRUE(build_topology(scene.objects[1].rest).closed());
+  EXPECT_TRUE(scene.objects[2].obstacle);
+  EXPECT_EQ(scene.objects[2].rest.num_vertices(), 16 * 3 + 1);
+  EXPECT_EQ(scene.objects[2].rest.num_faces(), 2 * 16 * 2 + 16);
+
+  // Each bad value is reported at its own key path.
+  struct Case { const char* pointer; const char* value; const char* message; };
+  const Case cases[] = {
+      {"/objects/1/mesh/root_radius", "0.3", "objects[1].mesh.root_radius: must be < radius (0.3), got 0.3"},
+      {"/objects/1/mesh/root_radius", "0.5", "objects[1].mesh.root_radius: must be < radius (0.3), got 0.5"},
+      {"/objects/1/mesh/teeth", "2", "objects[1].mesh.teeth: must be an integer from 3"},
+      {"/objects/1/mesh/segments", "8", "objects[1].mesh.segments: unknown key"},
+      {"/objects/2/mesh/capped", "true", "objects[2].mesh.capped: unknown key"},
+      {"/objects/2/mesh/rings", "0", "objects[2].mesh.rings: must be an integer from 1"}};
+  for (const Case& c : cases) {
+    json bad = s;
+    bad[json::json_pointer(c.pointer)] = json::parse(c.value);
+    expect_error(bad, {c.message});
+  }
+  json missing = s;
+  missing["objects"][1]["mesh"].erase("root_radius");
+  expect_error(missing, {"objects[1].mesh.root_radius: required key is missing"});
+}
+
 TEST(SceneFile, RectangleDiagonalPatternIsReadAndUnknownPatternsAreRejected) {
   json s = valid_scene();
   s["objects"][0]["mesh"]["diagonals"] = "rows";
@@ -401,7 +440,8 @@ TEST(SceneFileErrors, MeshResolutionBeyondTheVertexLimitIsRejected) {
 TEST(SceneFileErrors, UnknownChoicesListTheAllowedValues) {
   json s = valid_scene();
   s["objects"][0]["mesh"]["type"] = "rectangel";
-  expect_error(s, {"objects[0].mesh.type: unknown mesh type, did you mean 'rectangle'?", "\"icosphere\"", "\"obj\""});
+  expect_error(s, {"objects[0].mesh.type: unknown mesh type, did you mean 'rectangle'?", "\"icosphere\"",
+                   "\"cup\"", "\"gear\"", "\"obj\""});
   s = valid_scene();
   s["solver"] = {{"hessian_projection", "project"}};
   expect_error(s, {"solver.hessian_projection: unknown Hessian projection", "\"none\", \"clamp\", \"abs\""});
