@@ -57,6 +57,14 @@ void ContactControl::set_kappa(double kappa) {
   if (ground) ground->set_kappa(kappa);
 }
 
+void ContactControl::restore_kappa(double kappa) {
+  if (!(kappa > 0.0) || !std::isfinite(kappa))
+    throw std::invalid_argument("restore_kappa: the barrier stiffness must be finite and > 0");
+  if (!has_barrier()) return;
+  set_kappa(kappa);
+  kappa_initialized_ = true;
+}
+
 void ContactControl::begin_step(const IncrementalPotential& ip, const StepStart& step) {
   if (!has_barrier()) return;
   const Eigen::VectorXd& x = *step.x;

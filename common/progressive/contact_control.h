@@ -47,6 +47,10 @@ class ContactControl {
   bool after_iteration(const Eigen::VectorXd& x);
 
   double kappa() const { return kappa_; }
+  // Continues a run whose barrier stiffness was `kappa` (J/m^4, > 0; the barrier_stiffness stat of
+  // the frame it continues from) instead of balancing it afresh at the first step: a task that
+  // continues a level from its own frames then repeats the single run bit for bit.
+  void restore_kappa(double kappa);
   // Frame statistics at x (names as stored under /levels/<l>/stats/): contact_active_pairs,
   // contact_min_gap (m, +inf without pairs within dhat), barrier_stiffness (J/m^4),
   // friction_contacts, max_stretch (strain-limited objects only).

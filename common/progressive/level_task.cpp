@@ -67,6 +67,7 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
       fail(task, "the level's own frames need " + std::to_string(n / 3) + " vertices");
     x = *inputs.own_start;
     v = (*inputs.own_start - *inputs.own_before) / h;
+    if (inputs.own_kappa) sys.contact.restore_kappa(*inputs.own_kappa);
   } else {
     const Eigen::VectorXd xa = below(a), xb = below(a - 1);
     const UpsamplingLevel up = upsampling_level(scene, hierarchy, l - 1);

@@ -24,8 +24,7 @@
 // drag read the start state, and a cloth resting on a faceted collider has nearby equilibria; in
 // tests/progressive/level_task_test.cpp (cloth on a 42-vertex sphere) the frames after a vertical
 // start at frame 12 stay 5-6 mm from the single run's. A horizontal continuation (own frames a-1,
-// a) repeats the single run bit for bit when nothing adapts over the run (no contact); with contact
-// its barrier stiffness restarts from the task's start.
+// a, and with contact the barrier stiffness of frame a) repeats the single run bit for bit.
 //
 // Deterministic: the same inputs give the same frames bit for bit.
 //
@@ -57,6 +56,10 @@ struct LevelTaskInputs {
   // Level l's own frames a-1 and a, for a horizontal continuation (a >= 1). Level 0 requires them
   // when a >= 1; level l >= 1 without them starts vertically.
   std::optional<Eigen::VectorXd> own_before, own_start;
+  // With a horizontal continuation of a scene with contact: the barrier stiffness at frame a (its
+  // barrier_stiffness stat, J/m^4). Given, the task continues with it and repeats the single run bit
+  // for bit; absent, it balances a new one at its first step.
+  std::optional<double> own_kappa;
 };
 
 struct LevelTaskOptions {

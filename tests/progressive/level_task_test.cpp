@@ -144,6 +144,45 @@ TEST(LevelTask, SubsetStartedVerticallyFollowsTheSingleRun) {
   EXPECT_LT(max_difference(vertical, all, 13), 1e-12);
 }
 
+// With contact, a horizontal continuation that restores frame 12's barrier stiffness repeats the
+// single run bit for bit.
+TEST(LevelTask, HorizontalContinuationWithContactRepeatsTheSingleRunBitForBit) {
+  const Scene scene = sheet_on_sphere(24);
+  const SceneHierarchy h = build_scene_hierarchy(scene);
+  Frames preview, whole, tail;
+  run(scene, h, {0, 0, 24}, nullptr, preview);
+  double kappa12 = 0.0;
+  LevelTaskInputs in;
+  in.below = [&](int t) { return preview.at(t); };
+  solve_level_task(scene, h, {1, 0, 24}, in, [&](const FrameRecord& f) {
+    whole[f.frame] = f.x;
+    if (f.frame == 12)
+      for (const auto& [name, value] : f.contact)
+        if (name == "barrier_stiffness") kappa12 = value;
+  });
+  ASSERT_GT(kappa12, 0.0);
+  LevelTaskInputs own;
+  own.own_before = whole.at(11);
+  own.own_start = whole.at(12);
+  own.own_kappa = kappa12;
+  run(scene, h, {1, 12, 24}, &preview, tail, own);
+  EXPECT_EQ(max_difference(tail, whole, 13), 0.0);
+  // The preview level continues the same way.
+  Frames preview_tail;
+  LevelTaskInputs own0;
+  own0.own_before = preview.at(11);
+  own0.own_start = preview.at(12);
+  double kappa0 = 0.0;
+  solve_level_task(scene, h, {0, 0, 12}, {}, [&](const FrameRecord& f) {
+    if (f.frame == 12)
+      for (const auto& [name, value] : f.contact)
+        if (name == "barrier_stiffness") kappa0 = value;
+  });
+  own0.own_kappa = kappa0;
+  run(scene, h, {0, 12, 24}, nullptr, preview_tail, own0);
+  EXPECT_EQ(max_difference(preview_tail, preview, 13), 0.0);
+}
+
 TEST(LevelTask, BadTasksAreRefusedWithTheTaskInTheMessage) {
   const Scene scene = sheet_on_sphere(10);
   const SceneHierarchy h = build_scene_hierarchy(scene);
