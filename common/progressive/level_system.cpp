@@ -44,12 +44,30 @@ Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int le
   return out;
 }
 
+namespace {
+
+// The scene's stacked initial positions, objects in scene order (the finest level's x0).
+Eigen::VectorXd build_initial_positions(const Scene& scene) {
+  Eigen::Index n = 0;
+  for (const SceneObject& o : scene.objects) n += o.initial.rows();
+  Eigen::VectorXd x(3 * n);
+  Eigen::Index at = 0;
+  for (const SceneObject& o : scene.objects) {
+    x.segment(3 * at, 3 * o.initial.rows()) = stacked(o.initial);
+    at += o.initial.rows();
+  }
+  return x;
+}
+
+}  // namespace
+
 SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarchy, int level,
                                const LevelSystemOptions& options) {
   const Scene at_level = scene_at_level(scene, hierarchy, level);
   if (level == hierarchy.finest() || options.direct) return build_scene_system(at_level);
 
-  SceneSystem sys = build_scene_system(at_level, /*own_elasticity=*/false);
+  SceneSystem sys = build_scene_system(at_level, /*own_shell_forces=*/false);
+  const Eigen::VectorXd finest_initial = build_initial_positions(scene);
   const SceneLevel& lv = hierarchy.levels[static_cast<std::size_t>(level)];
   const SceneLevel& finest = hierarchy.levels.back();
   sys.prolongation = std::make_shared<ProlongationState>(*lv.to_finest_prolongation, stacked(lv.rest.V));
@@ -60,12 +78,12 @@ SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarc
     std::vector<std::unique_ptr<EnergyTerm>> fine_terms, coarse_terms;
     Faces fine_faces = obj.rest.F;
     fine_faces.array() += fine_offset;
-    add_shell_elasticity(obj, fine_faces, fine_offset, finest.rest.V, fine_terms);
+    add_shell_forces(obj, fine_faces, fine_offset, finest.rest.V, finest_initial, fine_terms);
     if (options.hessian == ProlongedHessian::Coarse) {
       const SceneObject& coarse_obj = at_level.objects[o];
       Faces coarse_faces = coarse_obj.rest.F;
       coarse_faces.array() += coarse_offset;
-      add_shell_elasticity(coarse_obj, coarse_faces, coarse_offset, lv.rest.V, coarse_terms);
+      add_shell_forces(coarse_obj, coarse_faces, coarse_offset, lv.rest.V, sys.x0, coarse_terms);
     }
     for (std::size_t k = 0; k < fine_terms.size(); ++k)
       sys.ip.add_term(std::make_unique<ProlongedTerm>(std::move(fine_terms[k]), sys.prolongation, options.hessian,

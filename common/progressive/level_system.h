@@ -3,15 +3,16 @@
 //
 //   1/(2h^2) ||x - xhat||^2_{M_l} + gravity, wind, pressure on level l + C_l(x) + Psi_L(P^l(x))
 //
-// Level l's own mesh carries the inertia (masses lumped on its rest shape), gravity, wind, pressure,
-// pins, obstacles, contact and strain limits (C_l: "the sum of remaining current level-l contact and
-// strain-limiting potentials"); the shell elasticity (membrane and bending) is the finest level's,
-// evaluated on the prolonged shape through P^l with frozen offsets (progressive/prolonged_term.h).
-// At the finest level P^L is the identity and the system is the plain one (build_scene_system).
+// Level l's own mesh carries the inertia (masses lumped on its rest shape), gravity, wind, pins,
+// obstacles, contact and strain limits (C_l: "the sum of remaining current level-l contact and
+// strain-limiting potentials"); the shell forces (membrane, bending and internal pressure) are the
+// finest level's, evaluated on the prolonged shape through P^l with frozen offsets
+// (progressive/prolonged_term.h). At the finest level P^L is the identity and the system is the
+// plain one (build_scene_system).
 //
-// Why wind and pressure stay on level l rather than prolonged: the paper prolongs the shell elastics
-// only; wind and pressure act on the surface the level simulates, and a coarse closed surface's own
-// volume is what its pressure must keep (measured consequences: bench/, issue 5).
+// Pressure is prolonged with the elasticity: the gas fills the finest surface, whose volume a coarse
+// polyhedron underestimates (ball-drop's 40-vertex level holds 6.7% less than its 642-vertex one). Wind
+// stays on level l: it is a drag on the surface the level moves, lagged from its own velocities.
 //
 // Conventions: level 0 = coarsest, L = hierarchy.finest(); global vertex ids of the level (objects
 // stacked as in SceneLevel); stacked vectors x[3i + k] (m).

@@ -84,6 +84,10 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
   }
 }
 
+double ProlongedTerm::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const {
+  return fine_->max_step(state_->fine_positions(x), state_->U() * dx);
+}
+
 void ProlongedTerm::begin_step(const StepStart& step) {
   StepStart fine = step;
   Eigen::VectorXd x_fine, v_fine;

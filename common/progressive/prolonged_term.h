@@ -83,6 +83,8 @@ class ProlongedTerm : public EnergyTerm {
   void add_hessian(const Eigen::VectorXd& x, HessianProjection projection, HessianAssembly& hessian) const override;
   // Hands the fine term the prolonged start state (positions U x + A, velocities U v).
   void begin_step(const StepStart& step) override;
+  // The fine term's admissible step along the prolonged motion U dx (pressure's volume guard).
+  double max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const override;
 
  private:
   std::unique_ptr<EnergyTerm> fine_;

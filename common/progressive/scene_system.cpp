@@ -49,8 +49,8 @@ Vec3 keyframed_position(const std::vector<Keyframe>& keys, const Vec3& X, double
 
 }  // namespace
 
-void add_shell_elasticity(const SceneObject& obj, const Faces& faces, int offset, const Positions& rest,
-                          std::vector<std::unique_ptr<EnergyTerm>>& terms) {
+void add_shell_forces(const SceneObject& obj, const Faces& faces, int offset, const Positions& rest,
+                      const Eigen::VectorXd& initial, std::vector<std::unique_ptr<EnergyTerm>>& terms) {
   const Material& mat = obj.material;
   terms.push_back(std::make_unique<NeoHookeanMembrane>(
       faces, rest, MembraneMaterialParams::from(mat.youngs_modulus, mat.poisson_ratio, mat.thickness)));
@@ -58,9 +58,10 @@ void add_shell_elasticity(const SceneObject& obj, const Faces& faces, int offset
   for (auto& hg : hinges)
     for (int& v : hg.v) v += offset;
   if (!hinges.empty()) terms.push_back(std::make_unique<HingeBending>(hinges, rest, mat.bending_rigidity()));
+  if (obj.pressure) terms.push_back(std::make_unique<PressureTerm>(faces, initial, *obj.pressure));
 }
 
-SceneSystem build_scene_system(const Scene& scene, bool own_elasticity) {
+SceneSystem build_scene_system(const Scene& scene, bool own_shell_forces) {
   SceneSystem sys;
   int n = 0, m = 0;
   sys.object_offsets.push_back(0);
@@ -105,8 +106,7 @@ SceneSystem build_scene_system(const Scene& scene, bool own_elasticity) {
     const Material& mat = obj.material;
     sys.masses.segment(3 * off, 3 * nv) = lumped_masses(obj.rest.F, obj.rest.V, mat.density * mat.thickness);
 
-    if (own_elasticity) add_shell_elasticity(obj, F, off, sys.rest.V, terms);
-    if (obj.pressure) terms.push_back(std::make_unique<PressureTerm>(F, sys.x0, *obj.pressure));
+    if (own_shell_forces) add_shell_forces(obj, F, off, sys.rest.V, sys.x0, terms);
     if (scene.wind && obj.wind) terms.push_back(std::make_unique<WindTerm>(F, *scene.wind));
 
     for (const auto& group : obj.pins) add_pins(group, off, sys);

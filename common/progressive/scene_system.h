@@ -46,15 +46,17 @@ struct SceneSystem {
 };
 
 // Builds the system of the scene's meshes as given. Obstacles get every vertex pinned to their
-// motion script, no mass and no elastic terms. own_elasticity = false leaves out every object's
-// membrane and bending (a coarse level of a progressive run adds the finest level's instead).
-SceneSystem build_scene_system(const Scene& scene, bool own_elasticity = true);
+// motion script, no mass and no elastic terms. own_shell_forces = false leaves out every object's
+// membrane, bending and pressure (a coarse level of a progressive run adds the finest level's
+// instead).
+SceneSystem build_scene_system(const Scene& scene, bool own_shell_forces = true);
 
-// An object's shell elasticity (Neo-Hookean membrane, then hinge bending if it has interior edges)
-// appended to `terms`: faces = its faces in global ids, offset = its first global vertex, rest = the
-// global rest positions the terms read.
-void add_shell_elasticity(const SceneObject& obj, const Faces& faces, int offset, const Positions& rest,
-                          std::vector<std::unique_ptr<EnergyTerm>>& terms);
+// An object's shell forces appended to `terms`: Neo-Hookean membrane, hinge bending if it has
+// interior edges, pressure if it has one. faces = its faces in global ids, offset = its first global
+// vertex, rest = the global rest positions the terms read, initial = the stacked initial positions
+// (the pressure's V0).
+void add_shell_forces(const SceneObject& obj, const Faces& faces, int offset, const Positions& rest,
+                      const Eigen::VectorXd& initial, std::vector<std::unique_ptr<EnergyTerm>>& terms);
 
 // Where a pinned vertex is at time t (s).
 Vec3 pin_position(const SceneSystem& sys, const PinnedVertex& pin, double t);

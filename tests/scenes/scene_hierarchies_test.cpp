@@ -19,8 +19,8 @@ namespace pd {
 namespace {
 
 const std::vector<std::string> kScenes = {
-    "balloon",   "cube-trampoline", "drape-sphere", "flag",           "hanging-sheet",
-    "self-fold", "slope-friction",  "spin-sphere",  "strip-cantilever",
+    "balloon",   "ball-drop",      "cube-trampoline", "drape-sphere",     "flag",
+    "hanging-sheet", "self-fold",  "slope-friction",  "spin-sphere",      "strip-cantilever",
 };
 
 TEST(SceneHierarchies, EveryExampleSceneIsListed) {
