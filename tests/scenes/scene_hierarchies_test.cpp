@@ -12,6 +12,8 @@
 #include <vector>
 
 #include "hierarchy/scene_hierarchy.h"
+#include "progressive/contact_control.h"
+#include "progressive/level_system.h"
 #include "scene/scene_file.h"
 #include "support/test_paths.h"
 
@@ -19,8 +21,8 @@ namespace pd {
 namespace {
 
 const std::vector<std::string> kScenes = {
-    "balloon",   "ball-drop",      "cube-trampoline", "drape-sphere",     "flag",
-    "hanging-sheet", "self-fold",  "slope-friction",  "spin-sphere",      "strip-cantilever",
+    "balloon",       "ball-drop", "basket",         "cube-trampoline", "drape-gear",       "drape-sphere",
+    "flag",          "hanging-sheet", "self-fold",  "slope-friction",  "spin-sphere",      "strip-cantilever",
 };
 
 TEST(SceneHierarchies, EveryExampleSceneIsListed) {
@@ -61,6 +63,14 @@ TEST(SceneHierarchies, EveryExampleSceneBuildsItsHierarchyWithExactRestRecovery)
     }
     std::printf("%-17s %d levels, vertices (coarsest to finest): %s\n", name.c_str(), h.num_levels(),
                 counts.c_str());
+    // A scene that runs progressively must start admissibly on every level (pd simulate checks the
+    // same before writing anything): no level's coarse meshes may overlap or cross the offset.
+    if (scene.progressive) {
+      for (int l = 0; l < h.num_levels(); ++l) {
+        EXPECT_NO_THROW(check_start_state(scene_at_level(scene, h, l), build_level_system(scene, h, l)))
+            << name << " level " << l;
+      }
+    }
   }
 }
 
