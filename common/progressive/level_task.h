@@ -10,7 +10,9 @@
 //   with x_{l-1}^{-1} = x_{l-1}^0 - h v^0 (the scene's initial velocity) for t = 0;
 //   both with contact and strain limits on level l's geometry and the finest level's elasticity
 //   through P^l (progressive/level_system.h). Each step warm-starts from the level's previous frame
-//   (horizontal warm start).
+//   (horizontal warm start). Coarser levels use the scene's Newton cap (solver.max_newton_iterations);
+//   the finest level of a progressive run, which should stop only on convergence (PD 4.6), ten times
+//   that (a direct run keeps the scene's cap, as plain pd simulate does).
 //
 // Where a task starts (its frame a of level l):
 //   a = 0             the level's initial state (level_system's x0, v0), stored as frame 0;
