@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "progressive/consistency.h"
 #include "progressive/level_task.h"
 #include "scene/scene_file.h"
 #include "store/frame_store.h"
@@ -64,12 +65,11 @@ LevelRun solve(const Scene& scene, const SceneHierarchy& h, int level, const Lev
 
 // max and mean over frames of the summed distance between simulated objects' centres of mass (m).
 std::pair<double, double> deviation(const Scene& scene, const LevelRun& a, const LevelRun& b) {
+  std::vector<char> obstacle;
+  for (const SceneObject& o : scene.objects) obstacle.push_back(o.obstacle ? 1 : 0);
   double worst = 0.0, sum = 0.0;
   for (const auto& [t, com] : a.com) {
-    double d = 0.0;
-    for (std::size_t k = 0; k < scene.objects.size(); ++k)
-      if (!scene.objects[k].obstacle)
-        d += (com.row(static_cast<Eigen::Index>(k)) - b.com.at(t).row(static_cast<Eigen::Index>(k))).norm();
+    const double d = com_distance(com, b.com.at(t), obstacle);
     worst = std::max(worst, d);
     sum += d;
   }

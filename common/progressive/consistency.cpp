@@ -49,6 +49,13 @@ std::vector<LevelSeries> read_level_series(const FrameReader& reader) {
   return out;
 }
 
+double com_distance(const ObjectPoints& a, const ObjectPoints& b, const std::vector<char>& obstacle) {
+  double sum = 0.0;
+  for (Eigen::Index k = 0; k < a.rows(); ++k)
+    if (!obstacle[static_cast<std::size_t>(k)]) sum += (a.row(k) - b.row(k)).norm();
+  return sum;
+}
+
 std::vector<std::pair<int, double>> com_deviation(const LevelSeries& a, const LevelSeries& ref) {
   if (a.object_names.size() != ref.object_names.size())
     throw InputError(a.file + " level " + std::to_string(a.level) + " has " + std::to_string(a.object_names.size()) +
@@ -60,10 +67,7 @@ std::vector<std::pair<int, double>> com_deviation(const LevelSeries& a, const Le
     while (j < ref.frames.size() && ref.frames[j] < a.frames[i]) ++j;
     if (j == ref.frames.size()) break;
     if (ref.frames[j] != a.frames[i]) continue;
-    double sum = 0.0;
-    for (Eigen::Index k = 0; k < a.com[i].rows(); ++k)
-      if (!a.obstacle[static_cast<std::size_t>(k)]) sum += (a.com[i].row(k) - ref.com[j].row(k)).norm();
-    out.emplace_back(a.frames[i], sum);
+    out.emplace_back(a.frames[i], com_distance(a.com[i], ref.com[j], a.obstacle));
   }
   return out;
 }

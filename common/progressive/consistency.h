@@ -30,6 +30,10 @@ struct LevelSeries {
 // scene text stored in the file (an unreadable scene text counts every object as simulated).
 std::vector<LevelSeries> read_level_series(const FrameReader& reader);
 
+// The deviation rule for one frame: sum over objects k with obstacle[k] == 0 of |a_k - b_k| (m).
+// a, b: (objects, 3) centres of mass; obstacle: one flag per object.
+double com_distance(const ObjectPoints& a, const ObjectPoints& b, const std::vector<char>& obstacle);
+
 // deviation(t) of `a` against `ref` for every frame both hold, as (frame, metres) pairs in frame
 // order. Throws InputError (naming both files and levels) when their object counts differ.
 std::vector<std::pair<int, double>> com_deviation(const LevelSeries& a, const LevelSeries& ref);

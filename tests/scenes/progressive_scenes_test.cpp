@@ -8,6 +8,7 @@
 #include <map>
 #include <vector>
 
+#include "progressive/consistency.h"
 #include "progressive/level_task.h"
 #include "store/frame_store.h"
 #include "scene/scene_file.h"
@@ -43,13 +44,10 @@ LevelRun solve(const Scene& scene, const SceneHierarchy& h, int level, const Lev
 
 // max over frames of the summed distance between the simulated objects' centres of mass (m).
 double max_com_deviation(const Scene& scene, const LevelRun& a, const LevelRun& b) {
+  std::vector<char> obstacle;
+  for (const SceneObject& o : scene.objects) obstacle.push_back(o.obstacle ? 1 : 0);
   double worst = 0.0;
-  for (const auto& [t, com] : a.com) {
-    double sum = 0.0;
-    for (std::size_t k = 0; k < scene.objects.size(); ++k)
-      if (!scene.objects[k].obstacle) sum += (com.row(static_cast<Eigen::Index>(k)) - b.com.at(t).row(static_cast<Eigen::Index>(k))).norm();
-    worst = std::max(worst, sum);
-  }
+  for (const auto& [t, com] : a.com) worst = std::max(worst, com_distance(com, b.com.at(t), obstacle));
   return worst;
 }
 
