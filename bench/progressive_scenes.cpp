@@ -10,10 +10,10 @@
 // coarsest (preview s/step over direct coarsest s/step; the paper: about 2x), and the coarsest-vs-
 // finest deviation of both kinds of run with their ratio.
 //
-//   pd_bench_progressive                                   # the default scenes below
+//   pd_bench_progressive                                   # the six progressive scenes of scenes/
 //   pd_bench_progressive scenes/flag.json --frames 100     # given scenes, fewer frames
 //   --levels N      override every scene's hierarchy.levels
-//   --hessian galerkin|coarse
+//   --hessian galerkin|lagged|coarse
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -90,13 +90,14 @@ int main(int argc, char** argv) {
     } else if (a == "--levels" && i + 1 < argc) {
       levels = std::atoi(argv[++i]);
     } else if (a == "--hessian" && i + 1 < argc) {
-      const std::string h = argv[++i];
-      options.system.hessian = h == "coarse" ? ProlongedHessian::Coarse : ProlongedHessian::Galerkin;
+      options.system.hessian = parse_prolonged_hessian(argv[++i]);
     } else {
       files.push_back(a);
     }
   }
-  if (files.empty()) files = {"scenes/cube-trampoline.json", "scenes/flag.json", "scenes/spin-sphere.json"};
+  if (files.empty())
+    files = {"scenes/cube-trampoline.json", "scenes/flag.json",   "scenes/drape-gear.json",
+             "scenes/basket.json",          "scenes/ball-drop.json", "scenes/spin-sphere.json"};
 
   std::vector<std::string> level_rows, scene_rows;
   for (const std::string& file : files) {
@@ -119,6 +120,9 @@ int main(int argc, char** argv) {
     }
     const LevelRun d0 = solve(scene, h, 0, nullptr, true, options);
     const LevelRun dL = solve(scene, h, L, nullptr, true, options);
+    for (const LevelRun* r : {&d0, &dL})
+      std::printf("  direct level %d: %d vertices, %.3f s/step, %.1f Newton its/step, %d unconverged\n", r->level,
+                  r->vertices, r->seconds / scene.frames, double(r->newton) / scene.frames, r->unconverged);
     const auto row = [&](const char* kind, const LevelRun& r, const LevelRun& finest) {
       const auto [worst, mean] = deviation(scene, r, finest);
       char buf[512];

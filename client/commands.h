@@ -17,7 +17,7 @@ struct SimulateArgs {
   int level = -1;           // direct: the hierarchy level to simulate (0 = coarsest)
   int levels = -1;          // override of the scene's hierarchy.levels
   bool preview_only = false;  // progressive: stop after level 0
-  std::string hessian = "galerkin";  // progressive: "galerkin" or "coarse" (progressive/prolonged_term.h)
+  std::string hessian = "lagged";  // progressive: "galerkin", "lagged" or "coarse" (progressive/prolonged_term.h)
 };
 int simulate(const SimulateArgs& args);
 

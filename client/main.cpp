@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   simulate->add_flag("--preview-only", sim.preview_only, "progressive: stop after the preview (level 0)");
   simulate->add_option("--hessian", sim.hessian, "progressive: Hessian of the prolonged elasticity")
-      ->check(CLI::IsMember({"galerkin", "coarse"}));
+      ->check(CLI::IsMember({"galerkin", "lagged", "coarse"}));
 
   pd::cli::ExportArgs exp;
   auto* export_cmd = app.add_subcommand("export", "Write the frames of a frame file for other tools");

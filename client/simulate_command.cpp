@@ -26,7 +26,7 @@ int simulate_levels(const SimulateArgs& args, Scene scene) {
   opt.out_path = args.out;
   opt.frames = args.frames;
   opt.task.system.direct = args.mode == "direct";
-  opt.task.system.hessian = args.hessian == "coarse" ? ProlongedHessian::Coarse : ProlongedHessian::Galerkin;
+  opt.task.system.hessian = parse_prolonged_hessian(args.hessian);
   opt.direct_level = args.level;
   if (args.preview_only) opt.last_level = 0;
   const int frames = args.frames >= 1 ? args.frames : scene.frames;

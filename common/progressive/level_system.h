@@ -33,7 +33,7 @@ namespace pd {
 Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int level);
 
 struct LevelSystemOptions {
-  ProlongedHessian hessian = ProlongedHessian::Galerkin;  // coarse levels only (see prolonged_term.h)
+  ProlongedHessian hessian = ProlongedHessian::Lagged;  // coarse levels only (see prolonged_term.h)
   // Direct simulation of the level (PD eq. 3): its own mesh's elasticity instead of the finest
   // level's through P^l, for comparison with the progressive run.
   bool direct = false;

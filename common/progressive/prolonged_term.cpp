@@ -6,6 +6,13 @@
 
 namespace pd {
 
+ProlongedHessian parse_prolonged_hessian(const std::string& name) {
+  if (name == "galerkin") return ProlongedHessian::Galerkin;
+  if (name == "lagged") return ProlongedHessian::Lagged;
+  if (name == "coarse") return ProlongedHessian::Coarse;
+  throw std::invalid_argument("unknown prolonged Hessian '" + name + "': use galerkin, lagged or coarse");
+}
+
 ProlongationState::ProlongationState(const ShellProlongation& prolongation, const Eigen::VectorXd& coarse_rest)
     : P_(&prolongation) {
   if (coarse_rest.size() != 3 * static_cast<Eigen::Index>(prolongation.num_coarse()))
@@ -48,8 +55,31 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
     coarse_->add_hessian(x, projection, hessian);
     return;
   }
-  // Galerkin: the fine Hessian (each element block projected as asked), made full from its stored
-  // lower triangle, carried through U.
+  if (mode_ == ProlongedHessian::Galerkin || blocks_stale_ || projection != blocks_projection_ ||
+      ++assemblies_since_refresh_ >= kLaggedRefreshEvery) {
+    compute_galerkin_blocks(x, projection);
+    blocks_stale_ = false;
+    blocks_projection_ = projection;
+    assemblies_since_refresh_ = 0;
+  }
+  // A diagonal block as a one-vertex element, an off-diagonal block (i > j) as the (i, j) block of a
+  // two-vertex element whose other blocks are zero. The block list depends only on the meshes and U,
+  // so the stencil sequence repeats from one assembly to the next and the coarse pattern is analysed
+  // once.
+  for (const GalerkinBlock& b : blocks_) {
+    if (b.i == b.j) {
+      hessian.add<1>({b.i}, b.block);
+    } else {
+      Eigen::Matrix<double, 6, 6> pair = Eigen::Matrix<double, 6, 6>::Zero();
+      pair.block<3, 3>(0, 3) = b.block;
+      hessian.add<2>({b.i, b.j}, pair);
+    }
+  }
+}
+
+// The fine Hessian (each element block projected as asked), made full from its stored lower
+// triangle, carried through U, and cut into 3x3 vertex blocks of its lower block triangle.
+void ProlongedTerm::compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection) const {
   fine_hessian_.begin(3 * state_->num_fine());
   fine_->add_hessian(state_->fine_positions(x), projection, fine_hessian_);
   const HessianAssembly::SparseMatrix& lower = fine_hessian_.finish(nullptr);
@@ -58,29 +88,18 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
   const Eigen::SparseMatrix<double>& U = state_->U();
   const Eigen::SparseMatrix<double> G = Eigen::SparseMatrix<double>(U.transpose()) * (full * U);
 
-  // Hand G to the coarse assembly in 3x3 vertex blocks: a diagonal block as a one-vertex element,
-  // an off-diagonal block (i > j) as the (i, j) block of a two-vertex element whose other blocks are
-  // zero. G's pattern depends only on the meshes and U, so the stencil sequence repeats from one
-  // assembly to the next and the coarse pattern is analysed once.
+  blocks_.clear();
   const int nc = state_->num_coarse();
   for (int j = 0; j < nc; ++j) {
-    std::map<int, Mat3> blocks;  // row vertex i >= j -> block (rows of i, columns of j)
+    std::map<int, Mat3> column;  // row vertex i >= j -> block (rows of i, columns of j)
     for (int b = 0; b < 3; ++b)
       for (Eigen::SparseMatrix<double>::InnerIterator it(G, 3 * j + b); it; ++it) {
         const int i = static_cast<int>(it.row()) / 3;
         if (i < j) continue;
-        auto found = blocks.try_emplace(i, Mat3::Zero()).first;
+        auto found = column.try_emplace(i, Mat3::Zero()).first;
         found->second(static_cast<int>(it.row()) % 3, b) = it.value();
       }
-    for (const auto& [i, block] : blocks) {
-      if (i == j) {
-        hessian.add<1>({i}, block);
-      } else {
-        Eigen::Matrix<double, 6, 6> pair = Eigen::Matrix<double, 6, 6>::Zero();
-        pair.block<3, 3>(0, 3) = block;
-        hessian.add<2>({i, j}, pair);
-      }
-    }
+    for (const auto& [i, block] : column) blocks_.push_back({i, j, block});
   }
 }
 
@@ -89,6 +108,7 @@ double ProlongedTerm::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& 
 }
 
 void ProlongedTerm::begin_step(const StepStart& step) {
+  blocks_stale_ = true;
   StepStart fine = step;
   Eigen::VectorXd x_fine, v_fine;
   if (step.x) {

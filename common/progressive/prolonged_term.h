@@ -19,6 +19,11 @@
 //   Galerkin  U^T H_fine U: each fine element block (projected as asked) is carried through U, so the
 //             result is positive semi-definite when the blocks are; one sparse product per assembly.
 //             The default: the cube-trampoline preview converges in 3.1 iterations per step.
+//   Lagged    the Galerkin Hessian of the step's first Newton iterate, reused for the next few iterates
+//             and then recomputed (a modified Newton method, see kLaggedRefreshEvery): the fine element
+//             Hessians, their projections and the product are paid once every few iterates, and the
+//             iterates in between cost a fine gradient and the coarse solve. Still positive
+//             semi-definite, so every direction descends; convergence is linear between refreshes.
 //   Coarse    the Hessian of a stand-in term on the level's own mesh (the same material on level l's
 //             rest shape, PSQ eq. 10's preconditioner): cheaper per iteration, not the exact Hessian
 //             of value(); the coarse shell is much stiffer than the finest seen through P, and the
@@ -30,6 +35,7 @@
 // finest level's global ids, coarse ids level l's.
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -67,9 +73,21 @@ class ProlongationState {
 };
 
 enum class ProlongedHessian {
-  Galerkin,  // U^T H_fine U
+  Galerkin,  // U^T H_fine U, at every Newton iterate
+  Lagged,    // U^T H_fine U at the first Newton iterate of each step and every kLaggedRefreshEvery-th
+             // after it, reused in between
   Coarse,    // the stand-in term's Hessian on the level's own mesh
 };
+
+// Lagged: the Galerkin Hessian is recomputed at every this-many-th assembly within a step. Measured
+// on 30-50-frame previews (docs/progressive.md): reusing it for the whole step left 22 of 30
+// spin-sphere steps unconverged; recomputing every 4 / 6 / 10 assemblies cost 36 / 34 / 36 s against
+// 64 s for plain Galerkin there, and 6 sits on the plateau for the flag and the large trampoline too.
+constexpr int kLaggedRefreshEvery = 6;
+
+// "galerkin", "lagged" or "coarse" (command-line and benchmark spelling); throws
+// std::invalid_argument naming the accepted words for anything else.
+ProlongedHessian parse_prolonged_hessian(const std::string& name);
 
 class ProlongedTerm : public EnergyTerm {
  public:
@@ -95,7 +113,20 @@ class ProlongedTerm : public EnergyTerm {
   std::shared_ptr<ProlongationState> state_;
   ProlongedHessian mode_;
   std::unique_ptr<EnergyTerm> coarse_;
+  // U^T H_fine U as 3x3 blocks (i, j), i >= j coarse vertex ids, column by column.
+  struct GalerkinBlock {
+    int i, j;
+    Mat3 block;
+  };
+  void compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection) const;
+
   mutable HessianAssembly fine_hessian_;  // reused so its sparsity pattern is analysed once
+  mutable std::vector<GalerkinBlock> blocks_;
+  // Lagged bookkeeping: begin_step marks the blocks stale; they were computed with blocks_projection_,
+  // assemblies_since_refresh_ assemblies ago.
+  mutable bool blocks_stale_ = true;
+  mutable int assemblies_since_refresh_ = 0;
+  mutable HessianProjection blocks_projection_ = HessianProjection::None;
 };
 
 }  // namespace pd

@@ -133,6 +133,45 @@ TEST(ProlongedTerm, CoarseHessianIsTheStandInsWhileValueAndGradientStayProlonged
   EXPECT_EQ(coarse.name(), "membrane");
 }
 
+// The lagged Galerkin Hessian: exact at a step's first assembly, then reused (whatever x is) until
+// the kLaggedRefreshEvery-th assembly, a new step or a different projection recomputes it.
+TEST(ProlongedTerm, LaggedHessianIsGalerkinAtRefreshesAndReusedBetweenThem) {
+  Sheet s;
+  auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
+  const Eigen::VectorXd x1 = s.deformed();
+  const Eigen::VectorXd x2 = 1.01 * x1 + Eigen::VectorXd::Constant(x1.size(), 0.002);
+  ASSERT_TRUE(state->refresh(x1));
+  const ProlongedTerm galerkin(s.bending(s.fine()), state, ProlongedHessian::Galerkin);
+  ProlongedTerm lagged(s.bending(s.fine()), state, ProlongedHessian::Lagged);
+  const HessianProjection none = HessianProjection::None, clamp = HessianProjection::Clamp;
+  const Eigen::MatrixXd at_x1 = test::term_hessian(galerkin, x1, none);
+  const Eigen::MatrixXd at_x2 = test::term_hessian(galerkin, x2, none);
+  ASSERT_GT((at_x1 - at_x2).norm(), 1e-3 * at_x1.norm());  // the two states must be told apart
+
+  EXPECT_TRUE(test::term_hessian(lagged, x1, none) == at_x1);  // first assembly: computed
+  int reused = 0;
+  for (int k = 1; k < kLaggedRefreshEvery; ++k, ++reused)
+    EXPECT_TRUE(test::term_hessian(lagged, x2, none) == at_x1) << "assembly " << k;
+  EXPECT_EQ(reused, kLaggedRefreshEvery - 1);
+  EXPECT_TRUE(test::term_hessian(lagged, x2, none) == at_x2);  // the refresh
+  EXPECT_TRUE(test::term_hessian(lagged, x1, none) == at_x2);  // reused again
+
+  const Eigen::VectorXd v = Eigen::VectorXd::Zero(x1.size());
+  lagged.begin_step({0.01, 0.01, &x1, &v});
+  EXPECT_TRUE(test::term_hessian(lagged, x1, none) == at_x1);  // a new step recomputes
+  EXPECT_TRUE(test::term_hessian(lagged, x2, clamp) == test::term_hessian(galerkin, x2, clamp));  // so does a new projection
+  // Value and gradient are never lagged.
+  EXPECT_EQ(lagged.value(x2), galerkin.value(x2));
+  EXPECT_TRUE(test::term_gradient(lagged, x2) == test::term_gradient(galerkin, x2));
+}
+
+TEST(ProlongedTerm, HessianNamesParseAndUnknownOnesAreRefused) {
+  EXPECT_EQ(parse_prolonged_hessian("galerkin"), ProlongedHessian::Galerkin);
+  EXPECT_EQ(parse_prolonged_hessian("lagged"), ProlongedHessian::Lagged);
+  EXPECT_EQ(parse_prolonged_hessian("coarse"), ProlongedHessian::Coarse);
+  EXPECT_THROW(parse_prolonged_hessian("Galerkin"), std::invalid_argument);
+}
+
 TEST(ProlongedTerm, DegenerateCoarseFaceKeepsTheLastOffsetsAndBadInputIsRefused) {
   Sheet s;
   const Eigen::VectorXd rest = stacked(s.coarse().V);
