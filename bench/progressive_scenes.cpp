@@ -13,6 +13,7 @@
 //
 //   pd_bench_progressive                                   # the six progressive scenes of scenes/
 //   pd_bench_progressive scenes/flag.json --frames 100     # given scenes, fewer frames
+//   pd_bench_progressive bench/scenes/flag-large.json      # 16x finer variants (bench/scenes/)
 //   --levels N      override every scene's hierarchy.levels
 //   --hessian galerkin|lagged|coarse
 #include <algorithm>

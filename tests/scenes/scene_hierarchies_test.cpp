@@ -74,5 +74,25 @@ TEST(SceneHierarchies, EveryExampleSceneBuildsItsHierarchyWithExactRestRecovery)
   }
 }
 
+// The benchmark's larger variants (bench/scenes/, too slow to simulate in CI) at least load and
+// build their hierarchies, so a key renamed in the scene format cannot break them unnoticed.
+TEST(SceneHierarchies, EveryBenchmarkVariantLoadsAndBuildsItsHierarchy) {
+  const std::vector<std::string> variants = {"cube-trampoline-large", "flag-large"};
+  std::vector<std::string> found;
+  for (const auto& e : std::filesystem::directory_iterator(test::source_dir() + "/bench/scenes"))
+    if (e.path().extension() == ".json") found.push_back(e.path().stem().string());
+  std::sort(found.begin(), found.end());
+  EXPECT_EQ(found, variants) << "bench/scenes/*.json and this list differ";
+  for (const std::string& name : variants) {
+    SCOPED_TRACE(name);
+    const Scene scene = load_scene(test::source_dir() + "/bench/scenes/" + name + ".json");
+    const SceneHierarchy h = build_scene_hierarchy(scene);
+    EXPECT_EQ(h.num_levels(), scene.hierarchy.levels);
+    EXPECT_GT(h.levels.back().rest.V.rows(), 6000);  // the point of a large variant
+    std::printf("%-22s %d levels, %d to %d vertices\n", name.c_str(), h.num_levels(),
+                static_cast<int>(h.levels.front().rest.V.rows()), static_cast<int>(h.levels.back().rest.V.rows()));
+  }
+}
+
 }  // namespace
 }  // namespace pd
