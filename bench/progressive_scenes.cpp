@@ -112,6 +112,7 @@ int main(int argc, char** argv) {
     const int L = h.finest();
     std::printf("%s: %d levels, %d frames, hierarchy %.2f s\n", scene.name.c_str(), L + 1, scene.frames, build);
     std::fflush(stdout);
+    const std::size_t rows_before = level_rows.size();
     std::vector<LevelRun> progressive;
     for (int l = 0; l <= L; ++l) {
       progressive.push_back(solve(scene, h, l, l > 0 ? &progressive.back() : nullptr, false, options));
@@ -160,6 +161,10 @@ int main(int argc, char** argv) {
                   scene.name.c_str(), scene.frames, build, dL.seconds / preview, preview / d0.seconds, lag,
                   1e3 * prog_dev, 1e3 * direct_dev, direct_dev / prog_dev, 1e3 * prog_dev_finest_direct);
     scene_rows.push_back(buf);
+    // This scene's rows now as well, so a run stopped in a later scene keeps them.
+    for (std::size_t k = rows_before; k < level_rows.size(); ++k) std::printf("%s\n", level_rows[k].c_str());
+    std::printf("%s\n", buf);
+    std::fflush(stdout);
   }
   std::printf("\n| scene | run | level | vertices | s/step | Newton its/step | unconverged steps | centre-of-mass "
               "deviation from the same run's finest level, max / mean (mm) |\n| --- | --- | ---: | ---: | ---: | ---: "
