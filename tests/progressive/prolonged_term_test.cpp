@@ -148,10 +148,10 @@ TEST(ProlongedTerm, LaggedHessianIsGalerkinAtRefreshesAndReusedBetweenThem) {
   const Eigen::MatrixXd at_x2 = test::term_hessian(galerkin, x2, none);
   ASSERT_GT((at_x1 - at_x2).norm(), 1e-3 * at_x1.norm());  // the two states must be told apart
 
+  static_assert(kLaggedRefreshEvery >= 2, "a lagged Hessian that is never reused is the Galerkin one");
   EXPECT_TRUE(test::term_hessian(lagged, x1, none) == at_x1);  // first assembly: computed
-  int reused = 0;
-  for (int k = 1; k < kLaggedRefreshEvery; ++k, ++reused)
-    EXPECT_TRUE(test::term_hessian(lagged, x2, none) == at_x1) << "assembly " << k;
+  int reused = 0;  // assemblies at x2 that returned x1's Hessian
+  for (int k = 1; k < kLaggedRefreshEvery; ++k) reused += test::term_hessian(lagged, x2, none) == at_x1;
   EXPECT_EQ(reused, kLaggedRefreshEvery - 1);
   EXPECT_TRUE(test::term_hessian(lagged, x2, none) == at_x2);  // the refresh
   EXPECT_TRUE(test::term_hessian(lagged, x1, none) == at_x2);  // reused again
