@@ -1,6 +1,7 @@
 #pragma once
 // The pd subcommands. Each returns the process exit code; input errors are thrown as InputError
 // and turned into a message and exit code 2 by main().
+#include <cstdint>
 #include <string>
 
 namespace pd::cli {
@@ -44,5 +45,72 @@ struct CompareArgs {
   std::string csv;    // CSV output; empty: FILE.compare.csv
 };
 int compare(const CompareArgs& args);
+
+// ---------------------------------------------------------------------------------------------------
+// Farm commands (farm_commands.cpp, run_command.cpp). `farm` is the scheduler's client endpoint from
+// --farm; empty: $PD_FARM, else tcp://127.0.0.1:7401 (farm_client.h). Numbers left at 0 mean "the
+// scene's value" (levels, frames) or "the scheduler's default" (preview_chunk), as in SubmitJob.
+
+struct SubmitArgs {
+  std::string farm;
+  std::string scene;
+  bool preview_only = false;
+  int levels = 0;
+  int subsets = 1;         // K time subsets per refinement level
+  int priority = 0;        // higher runs first
+  int frames = 0;
+  int preview_chunk = 0;   // frames per preview task
+  std::string hessian = "lagged";
+  bool json = false;       // print {"job": ID} instead of the bare id
+};
+int submit(const SubmitArgs& args);
+
+struct StatusArgs {
+  std::string farm;
+  int64_t job = 0;         // 0: every job
+  bool json = false;       // print protocol::to_json_text of the reply
+  bool watch = false;      // redraw every `interval` until the shown jobs end
+  bool wait = false;       // (needs job) block until it ends; exit 0 only when it is done
+  double interval = 1.0;   // s
+};
+int status(const StatusArgs& args);
+
+struct FetchArgs {
+  std::string farm;
+  int64_t job = 0;
+  std::string out;
+  bool json = false;       // print {"job", "file", "bytes"}
+};
+int fetch(const FetchArgs& args);
+
+// pd cancel JOB and pd refine JOB [--subsets K].
+struct JobActionArgs {
+  std::string farm;
+  int64_t job = 0;
+  int subsets = 1;         // refine only
+  bool json = false;       // print {"job", "message"}
+};
+int cancel(const JobActionArgs& args);
+int refine(const JobActionArgs& args);
+
+struct WorkersArgs {
+  std::string farm;
+  bool json = false;
+};
+int workers(const WorkersArgs& args);
+
+// pd run: a scheduler and `workers` workers on this machine for one job (local_farm.h).
+struct RunArgs {
+  std::string scene;
+  std::string out;
+  int workers = 0;
+  int subsets = 1;
+  bool preview_only = false;
+  int levels = 0;
+  int frames = 0;
+  std::string hessian = "lagged";
+  std::string keep_farm;   // farm folder to use and keep; empty: a temporary one, removed at the end
+};
+int run(const RunArgs& args);
 
 }  // namespace pd::cli

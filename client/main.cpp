@@ -1,13 +1,140 @@
 // pd: the command-line client. Local commands (simulate, export, hierarchy, compare) run in this process; the farm
-// commands (submit, status, ...) come with the scheduler.
+// commands (submit, status, fetch, cancel, refine, workers) talk to a pd-scheduler, and pd run starts a farm of
+// its own on this machine for one job.
 #include <cstdio>
 #include <exception>
+#include <string>
 
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
+#include "plan_command.h"
 #include "util/input_error.h"
 #include "util/process_setup.h"
+
+namespace {
+
+// The farm commands' arguments and subcommands, filled by add_farm_commands.
+struct FarmCommands {
+  pd::cli::SubmitArgs sub;
+  pd::cli::StatusArgs st;
+  pd::cli::FetchArgs fe;
+  pd::cli::JobActionArgs ca, re;
+  pd::cli::WorkersArgs wo;
+  pd::cli::RunArgs ru;
+  CLI::App *submit = nullptr, *status = nullptr, *fetch = nullptr, *cancel = nullptr, *refine = nullptr,
+           *workers = nullptr, *run = nullptr;
+
+  // Runs the farm command that was given; -1 when the command given is not a farm command.
+  int dispatch() const {
+    if (*submit) return pd::cli::submit(sub);
+    if (*status) return pd::cli::status(st);
+    if (*fetch) return pd::cli::fetch(fe);
+    if (*cancel) return pd::cli::cancel(ca);
+    if (*refine) return pd::cli::refine(re);
+    if (*workers) return pd::cli::workers(wo);
+    if (*run) return pd::cli::run(ru);
+    return -1;
+  }
+};
+
+// An integer option or argument that must be >= 1 (ids, counts): CLI11's PositiveNumber would print
+// its range as doubles.
+CLI::Validator at_least_one() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        try {
+          std::size_t used = 0;
+          const long long v = std::stoll(text, &used);
+          if (used == text.size() && v >= 1) return "";
+        } catch (const std::exception&) {
+        }
+        return "must be an integer >= 1, got " + text;
+      },
+      "INT>=1");
+}
+
+// A number of seconds > 0.
+CLI::Validator positive_seconds() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        try {
+          std::size_t used = 0;
+          const double v = std::stod(text, &used);
+          if (used == text.size() && v > 0 && v < 1e9) return "";
+        } catch (const std::exception&) {
+        }
+        return "must be a number of seconds > 0, got " + text;
+      },
+      "SECONDS>0");
+}
+
+void add_farm_commands(CLI::App& app, FarmCommands& f) {
+  const std::string farm_help = "Scheduler's client endpoint (default: $PD_FARM, else tcp://127.0.0.1:7401)";
+  const std::string job_help = "Job id (as pd submit printed it)";
+
+  f.submit = app.add_subcommand("submit", "Send a scene to the farm as a progressive job; prints the job id");
+  f.submit->add_option("scene", f.sub.scene, "Scene file (JSON); checked here first, as pd simulate checks it")
+      ->required();
+  f.submit->add_option("--farm", f.sub.farm, farm_help);
+  f.submit->add_flag("--preview-only", f.sub.preview_only,
+                     "Only the preview (level 0); add the rest later with pd refine");
+  f.submit->add_option("--levels", f.sub.levels, "Hierarchy levels instead of the scene's")->check(at_least_one());
+  f.submit->add_option("--subsets", f.sub.subsets, "Time subsets per refinement level (parallel tasks)")
+      ->check(at_least_one());
+  f.submit->add_option("--priority", f.sub.priority, "Higher runs first (default 0)");
+  f.submit->add_option("--frames", f.sub.frames, "Frames instead of the scene's count")->check(at_least_one());
+  f.submit->add_option("--preview-chunk", f.sub.preview_chunk, "Frames per preview task (default: the scheduler's)")
+      ->check(at_least_one());
+  f.submit->add_option("--hessian", f.sub.hessian, "Hessian of the prolonged elasticity")
+      ->check(CLI::IsMember({"galerkin", "lagged", "coarse"}));
+  f.submit->add_flag("--json", f.sub.json, "Print {\"job\": ID} instead of the bare id");
+
+  f.status = app.add_subcommand("status", "Progress of one job, or of every job");
+  f.status->add_option("job", f.st.job, job_help + "; without it every job")->check(at_least_one());
+  f.status->add_option("--farm", f.st.farm, farm_help);
+  f.status->add_flag("--json", f.st.json, "Print the reply as JSON");
+  f.status->add_flag("--watch", f.st.watch, "Redraw every --interval until the job(s) shown end");
+  f.status->add_flag("--wait", f.st.wait, "Block until JOB ends, print it; exit 0 only when it is done");
+  f.status->add_option("--interval", f.st.interval, "Seconds between polls of --watch and --wait (default 1)")
+      ->check(positive_seconds());
+
+  f.fetch = app.add_subcommand("fetch", "Download a job's frame file (as stored so far)");
+  f.fetch->add_option("job", f.fe.job, job_help)->required()->check(at_least_one());
+  f.fetch->add_option("--out,-o", f.fe.out, "Frame file to write (HDF5)")->required();
+  f.fetch->add_option("--farm", f.fe.farm, farm_help);
+  f.fetch->add_flag("--json", f.fe.json, "Print {\"job\", \"file\", \"bytes\"}");
+
+  f.cancel = app.add_subcommand("cancel", "Cancel a job: its running tasks stop, no frame is added");
+  f.cancel->add_option("job", f.ca.job, job_help)->required()->check(at_least_one());
+  f.cancel->add_option("--farm", f.ca.farm, farm_help);
+  f.cancel->add_flag("--json", f.ca.json, "Print {\"job\", \"message\"}");
+
+  f.refine = app.add_subcommand("refine", "Add the refinement levels to a preview-only job");
+  f.refine->add_option("job", f.re.job, job_help)->required()->check(at_least_one());
+  f.refine->add_option("--subsets", f.re.subsets, "Time subsets per refinement level")->check(at_least_one());
+  f.refine->add_option("--farm", f.re.farm, farm_help);
+  f.refine->add_flag("--json", f.re.json, "Print {\"job\", \"message\"}");
+
+  f.workers = app.add_subcommand("workers", "The workers the scheduler knows, one line each");
+  f.workers->add_option("--farm", f.wo.farm, farm_help);
+  f.workers->add_flag("--json", f.wo.json, "Print the reply as JSON");
+
+  f.run = app.add_subcommand("run", "Run a scene as a job on a farm of N workers started on this machine");
+  f.run->add_option("scene", f.ru.scene, "Scene file (JSON)")->required();
+  f.run->add_option("--workers,-w", f.ru.workers, "Worker processes to start")->required()->check(at_least_one());
+  f.run->add_option("--out,-o", f.ru.out, "Frame file to write (HDF5) when the job is done")->required();
+  f.run->add_option("--subsets", f.ru.subsets, "Time subsets per refinement level")->check(at_least_one());
+  f.run->add_flag("--preview-only", f.ru.preview_only, "Only the preview (level 0)");
+  f.run->add_option("--levels", f.ru.levels, "Hierarchy levels instead of the scene's")->check(at_least_one());
+  f.run->add_option("--frames", f.ru.frames, "Frames instead of the scene's count")->check(at_least_one());
+  f.run->add_option("--hessian", f.ru.hessian, "Hessian of the prolonged elasticity")
+      ->check(CLI::IsMember({"galerkin", "lagged", "coarse"}));
+  f.run->add_option("--keep-farm", f.ru.keep_farm,
+                    "Farm folder to use and keep (farm.sqlite, jobs/, logs); default: a temporary one, removed");
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   pd::limit_openmp_threads(argv);
@@ -57,6 +184,12 @@ int main(int argc, char** argv) {
   compare->add_option("other", cmp.other, "A second frame file of the same scene (e.g. a direct run)");
   compare->add_option("--csv", cmp.csv, "CSV file to write (default FILE.compare.csv)");
 
+  pd::cli::PlanArgs plan_args;
+  CLI::App* plan = pd::cli::add_plan_subcommand(app, plan_args);
+
+  FarmCommands farm;
+  add_farm_commands(app, farm);
+
   if (argc < 2) {  // bare `pd`: show what it can do, and fail (nothing was done)
     std::fputs(app.help().c_str(), stderr);
     return 2;
@@ -75,6 +208,8 @@ int main(int argc, char** argv) {
     if (*export_cmd) return pd::cli::export_frames(exp);
     if (*hierarchy) return pd::cli::hierarchy(hier);
     if (*compare) return pd::cli::compare(cmp);
+    if (*plan) return pd::cli::plan(plan_args);
+    if (const int code = farm.dispatch(); code >= 0) return code;
   } catch (const pd::InputError& e) {
     std::fprintf(stderr, "pd: error: %s\n", e.what());
     return 2;

@@ -209,6 +209,27 @@ void FrameWriter::write_frame(int level, int t, const Positions& x, const FrameS
   lv.is_done[t] = 1;
 }
 
+Positions FrameWriter::read_frame(int level, int t) const {
+  impl_->require_open();
+  const File& f = impl_->file;
+  const std::string data = level_name("/levels", level, "positions");
+  if (level < 0 || level >= num_levels()) f.fail(data, "level out of range [0, " + std::to_string(num_levels()) + ")");
+  const Impl::Level& lv = impl_->levels[level];
+  const std::string what = "frame " + std::to_string(t) + " of level " + std::to_string(level);
+  if (t < 0 || t >= impl_->num_frames)
+    f.fail(data, what + " out of range [0, " + std::to_string(impl_->num_frames) + ")");
+  if (!lv.is_done[t]) f.fail(data, what + " is not done");
+  Positions x(lv.num_vertices, 3);
+  f.io(false, lv.positions.get(), data, H5T_NATIVE_DOUBLE, {static_cast<hsize_t>(t), 0, 0},
+       {1, static_cast<hsize_t>(lv.num_vertices), 3}, x.data());
+  return x;
+}
+
+bool FrameWriter::is_done(int level, int t) const {
+  if (level < 0 || level >= num_levels() || t < 0 || t >= impl_->num_frames) return false;
+  return impl_->levels[level].is_done[t] != 0;
+}
+
 int FrameWriter::num_levels() const { return static_cast<int>(impl_->levels.size()); }
 int FrameWriter::num_frames() const { return impl_->num_frames; }
 const std::string& FrameWriter::path() const { return impl_->file.path; }

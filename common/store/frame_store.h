@@ -67,6 +67,12 @@ class FrameWriter {
   // flushed first).
   void write_frame(int level, int t, const Positions& x, const FrameStats& stats);
 
+  // Positions of a frame this writer stored (done), read back from the file: the farm's scheduler
+  // feeds stored frames to workers from its open job file. Throws InputError like FrameReader::frame
+  // for a level or frame out of range or not done.
+  Positions read_frame(int level, int t) const;
+  bool is_done(int level, int t) const;  // false outside the ranges
+
   int num_levels() const;
   int num_frames() const;  // last_frame + 1
   const std::string& path() const;

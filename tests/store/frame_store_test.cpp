@@ -156,6 +156,25 @@ TEST_F(FrameStoreTest, FramesWrittenOutOfOrderReadBackInPlace) {
   }
 }
 
+TEST_F(FrameStoreTest, WriterReadsBackItsStoredFramesBitExactAndRefusesOthers) {
+  FrameWriter w = make_writer(4);
+  const Positions a = random_positions(10, rng_), b = random_positions(6, rng_);
+  w.write_frame(1, 2, a, make_stats(2, 2));
+  w.write_frame(0, 4, b, {});
+  const Positions ra = w.read_frame(1, 2), rb = w.read_frame(0, 4);
+  ASSERT_EQ(ra.rows(), 10);
+  ASSERT_EQ(rb.rows(), 6);
+  EXPECT_TRUE(bits_equal(ra.data(), a.data(), a.size()));
+  EXPECT_TRUE(bits_equal(rb.data(), b.data(), b.size()));
+  EXPECT_TRUE(w.is_done(1, 2));
+  EXPECT_FALSE(w.is_done(1, 3));
+  EXPECT_FALSE(w.is_done(2, 0));
+  EXPECT_FALSE(w.is_done(0, 5));
+  EXPECT_NE(input_error_of([&] { w.read_frame(1, 3); }).find("frame 3 of level 1 is not done"), std::string::npos);
+  EXPECT_NE(input_error_of([&] { w.read_frame(1, 5); }).find("out of range"), std::string::npos);
+  EXPECT_NE(input_error_of([&] { w.read_frame(2, 0); }).find("level out of range"), std::string::npos);
+}
+
 TEST_F(FrameStoreTest, ReopeningAFileAndReadingAgain) {
   Positions X = random_positions(10, rng_);
   {

@@ -1,0 +1,63 @@
+#pragma once
+// The task graph of a farm job (../shared/DESIGN.md, "Task graph of a job"): which tasks a job is cut
+// into and which frames each one needs before it is dispatched. The scheduler adds these to the task
+// store (store/task_store.h); farm/makespan.h replays the same graph to predict a job's wall time.
+//
+// A job has N frames (t = 0..N) and L + 1 hierarchy levels (0 = coarsest). Its tasks, in this order:
+//   1. one hierarchy task (kind hierarchy, level 0, first = last = 0), waiting for nothing;
+//   2. level 0, the preview: a chain of chunks (0, c], (c, 2c], ..., the last one ending at N. Chunk
+//      (a, b] with a > 0 continues horizontally from level 0's frames a - 1 and a, so it needs them;
+//   3. unless preview_only, each level l = 1..L cut into K time subsets (a, b] with boundaries
+//      b_k = round(k N / K) = (k N + K / 2) / K in integer arithmetic (K is clamped to N so that no
+//      subset is empty). The first subset starts from the level's initial state at frame 0, the
+//      others vertically (safe upsampling of level l - 1's frame a).
+// Every task but the hierarchy task waits for the hierarchy task (after_hierarchy).
+//
+// Frame dependencies (PD eq. 5): step t -> t + 1 of level l >= 1 reads level l - 1's frames t and
+// t - 1 (frame -1 meaning frame 0). So a level-l task (a, b] needs level l - 1's frames max(a-1, 0)
+// and a stored before dispatch, and is then fed level l - 1's frames up to b - 1 as they land
+// (fed_frames); it can solve its frame t + 1 only once level l - 1's frame t is stored.
+// One addition: a subset of level l >= 2 with a > 0 and b > a + 1 also needs level l - 1's frame
+// a + 1, so that it is never dispatched before the task feeding it has started (a task dispatched
+// ahead of its feeder holds a worker idle and can starve the feeder of workers; task_graph.cpp).
+//
+// Bad options throw std::invalid_argument naming the field: "task graph: subsets must be >= 1, got 0".
+#include <optional>
+#include <vector>
+
+#include "store/task_store.h"
+
+namespace pd::farm {
+
+struct GraphOptions {
+  int frames = 0;          // N: the job solves frames 1..N of each level (frame 0 is the initial state)
+  int levels = 0;          // L + 1: hierarchy levels of the job, level 0 the preview
+  int subsets = 1;         // K: time subsets of each level l >= 1 (clamped to N)
+  int preview_chunk = 0;   // frames per level-0 chunk; 0: default_preview_chunk(frames); clamped to N
+  bool preview_only = false;  // no refinement tasks (pd refine adds them later: refinement_tasks)
+};
+
+// The level-0 chunk length used when GraphOptions::preview_chunk is 0: min(50, N) frames.
+int default_preview_chunk(int frames);
+
+// The job's whole graph: the hierarchy task, level 0's chain, then levels 1..L (unless preview_only),
+// each level's tasks by first frame.
+std::vector<pd::NewTask> job_tasks(const GraphOptions& options);
+
+// Levels 1..L only (what pd refine adds to a preview-only job); preview_only is ignored. Empty when
+// the job has a single level.
+std::vector<pd::NewTask> refinement_tasks(const GraphOptions& options);
+
+// A range of frames [first, last] (both included) of one level.
+struct FrameRange {
+  int level = 0;
+  int first = 0;
+  int last = 0;
+};
+
+// The frames of level l - 1 a level-l task (a, b], l >= 1, is fed: max(a - 1, 0) .. b - 1 (the
+// protocol's BelowFrame messages). nullopt for the hierarchy task and level-0 tasks. Throws
+// std::invalid_argument for a level task with level < 0, first < 0 or last <= first.
+std::optional<FrameRange> fed_frames(const pd::NewTask& task);
+
+}  // namespace pd::farm

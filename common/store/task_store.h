@@ -1,0 +1,185 @@
+#pragma once
+// The farm's task store: one SQLite file (FARM_DIR/farm.sqlite) holding the scheduler's whole state,
+// so that a restarted scheduler rebuilds everything from it (docs/farm.md, "Task store").
+//
+// Tables (schema version kTaskStoreSchemaVersion in PRAGMA user_version; another version is refused):
+//   jobs(id, name, scene_name, scene_text, scene_files (JSON), frames, levels, subsets, priority,
+//        preview_only, preview_chunk, hessian, state, reason, hierarchy_hash, submitted, finished)
+//   tasks(id, job_id, kind, level, first, last, state, reason, worker_id, attempts)
+//   task_after(task_id, after_task_id)      the task waits until after_task_id is done (hierarchy)
+//   task_frames(task_id, level, frame)      frames of the job that must be stored before dispatch
+//   frames(job_id, level, frame, kappa)     frames stored in the job file (kappa: barrier stiffness
+//                                            at the frame, J/m^4, NULL when the scene has no contact)
+//   attempts(id, task_id, worker_id, started, ended, outcome, message)
+//   workers(id, name, host, version, cores, state, last_seen, tasks_done)
+//   events(id, time, job_id, task_id, worker_id, kind, message)
+// Times are seconds since the Unix epoch (double). States are stored by their protocol names
+// (protocol/protocol.h), one enum each, defined there.
+//
+// Durability: WAL mode with synchronous = NORMAL (a committed transaction survives a crash of the
+// process), a busy timeout of 5 s, foreign keys on. Every method is one transaction; claim_next runs
+// in BEGIN IMMEDIATE so that two claimers can never take the same task.
+//
+// Errors: StoreError naming the file and the statement that failed ("farm.sqlite: claim: database
+// is locked"); an unknown id throws StoreError "farm.sqlite: no job 17".
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "protocol/protocol.h"
+
+namespace pd {
+
+constexpr int kTaskStoreSchemaVersion = 1;
+
+class StoreError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct FrameKey {
+  int level = 0;
+  int frame = 0;
+};
+
+struct NewJob {
+  std::string name;  // the scene's name
+  protocol::SceneSource scene;
+  int frames = 0;
+  int levels = 0;        // hierarchy levels of the job (the scene's, or --levels)
+  int subsets = 1;
+  int priority = 0;
+  bool preview_only = false;
+  int preview_chunk = 0;
+  std::string hessian;
+};
+
+// A task to add. `after_hierarchy`: waits for the job's hierarchy task (added in the same call, or
+// already in the store); `needs`: frames of the job that must be stored before it is dispatched.
+struct NewTask {
+  protocol::TaskKind kind = protocol::TaskKind::level;
+  int level = 0;
+  int first = 0;
+  int last = 0;
+  bool after_hierarchy = false;
+  std::vector<FrameKey> needs;
+};
+
+struct JobRow {
+  int64_t id = 0;
+  NewJob spec;
+  protocol::JobState state = protocol::JobState::queued;
+  std::string reason;
+  std::string hierarchy_hash;  // empty until the hierarchy task is done
+  double submitted = 0.0, finished = 0.0;  // finished = 0 while not ended
+};
+
+struct TaskRow {
+  int64_t id = 0;
+  int64_t job = 0;
+  protocol::TaskKind kind = protocol::TaskKind::level;
+  int level = 0, first = 0, last = 0;
+  protocol::TaskState state = protocol::TaskState::waiting;
+  std::string reason;
+  int64_t worker = 0;   // running: the worker holding it; done: the one that finished it; else 0
+  int attempts = 0;     // attempts started
+  int64_t attempt = 0;  // running: the current attempt id; else 0
+};
+
+struct WorkerRow {
+  int64_t id = 0;
+  std::string name, host, version;
+  int cores = 0;
+  std::string state;    // "idle", "busy", "lost"
+  double last_seen = 0.0;
+  int tasks_done = 0;
+};
+
+struct Claim {
+  TaskRow task;  // now running, task.attempt set
+  int64_t attempt = 0;
+};
+
+struct EventRow {
+  int64_t id = 0;
+  double time = 0.0;
+  int64_t job = 0, task = 0, worker = 0;
+  std::string kind, message;
+};
+
+class TaskStore {
+ public:
+  // Opens (creating when missing) the store at `path`; throws StoreError for a file that is not a
+  // task store or has another schema version.
+  explicit TaskStore(const std::string& path);
+  ~TaskStore();
+  TaskStore(const TaskStore&) = delete;
+  TaskStore& operator=(const TaskStore&) = delete;
+
+  const std::string& path() const;
+
+  // Jobs. add_job inserts the job (state queued) and its tasks in one transaction and promotes the
+  // tasks whose inputs are met to ready. Returns the job id.
+  int64_t add_job(const NewJob& job, const std::vector<NewTask>& tasks);
+  // Adds tasks to an existing job (pd refine), promotes ready ones; a done job goes back to running.
+  void add_tasks(int64_t job, const std::vector<NewTask>& tasks);
+  JobRow job(int64_t id) const;
+  std::optional<JobRow> find_job(int64_t id) const;
+  std::vector<JobRow> jobs() const;  // by id
+  void set_job_state(int64_t job, protocol::JobState state, const std::string& reason = "");
+  void set_hierarchy_hash(int64_t job, const std::string& hash);
+  // Sets preview_only = false (pd refine).
+  void set_preview_only(int64_t job, bool preview_only);
+
+  // Tasks.
+  TaskRow task(int64_t id) const;
+  std::vector<TaskRow> tasks(int64_t job) const;  // by level, then first
+  // Marks a running or ready task done (worker credited with tasks_done + 1 when given); promotes the
+  // tasks waiting after it; the job becomes done when all its tasks are.
+  void finish_task(int64_t task);
+  // The task's attempt failed: the task becomes failed with `reason`; every task of the job that
+  // needs one of its frames (directly or through others) becomes blocked, and the job failed.
+  void fail_task(int64_t task, const std::string& reason);
+  // A running task goes back to ready (its worker was lost or the attempt was refused); its attempt
+  // is closed with `outcome`.
+  void release_task(int64_t task, const std::string& outcome);
+  // Every waiting, ready or running task of the job becomes cancelled, the job cancelled.
+  void cancel_job(int64_t job);
+
+  // Frames. record_frame is called after the frame is written and flushed to the job file; it then
+  // promotes the waiting tasks whose inputs are all stored. Recording a frame again updates kappa.
+  void record_frame(int64_t job, const FrameKey& key, std::optional<double> kappa);
+  bool frame_stored(int64_t job, const FrameKey& key) const;
+  std::optional<double> frame_kappa(int64_t job, const FrameKey& key) const;
+  // Stored frames per level (index = level, size = the job's levels).
+  std::vector<int> frames_stored(int64_t job) const;
+  // Stored frames of a level in [first, last] (sorted).
+  std::vector<int> stored_frames(int64_t job, int level, int first, int last) const;
+
+  // Claims, in BEGIN IMMEDIATE: the best ready task of a queued or running job (highest job
+  // priority, then oldest job, then lowest level, then earliest first frame), marked running on
+  // `worker` with a new attempt; the job becomes running. nullopt when none is ready.
+  std::optional<Claim> claim_next(int64_t worker);
+  // Closes an attempt (outcome: "done", "failed", "lost", "cancelled", "refused", ...).
+  void end_attempt(int64_t attempt, const std::string& outcome, const std::string& message = "");
+
+  // Workers.
+  int64_t add_worker(const std::string& name, const std::string& host, const std::string& version, int cores);
+  void set_worker_state(int64_t worker, const std::string& state);
+  void touch_worker(int64_t worker);  // last_seen = now
+  WorkerRow worker(int64_t id) const;
+  std::vector<WorkerRow> workers() const;  // by id
+
+  // Event log (one row per event; the scheduler also prints each on stderr).
+  void log_event(int64_t job, int64_t task, int64_t worker, const std::string& kind, const std::string& message);
+  std::vector<EventRow> events(int64_t job) const;  // job = 0: all
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pd

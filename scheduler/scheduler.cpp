@@ -1,0 +1,291 @@
+#include "scheduler/scheduler.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "farm/messaging.h"
+#include "farm/task_graph.h"
+
+namespace pd::scheduler {
+
+namespace {
+
+std::vector<double> as_vector(const Positions& x) { return std::vector<double>(x.data(), x.data() + x.size()); }
+
+// Level-task ranges as the task graph defines them, for a stored task row.
+NewTask as_new_task(const TaskRow& t) {
+  NewTask n;
+  n.kind = t.kind;
+  n.level = t.level;
+  n.first = t.first;
+  n.last = t.last;
+  return n;
+}
+
+}  // namespace
+
+Scheduler::Scheduler(const SchedulerOptions& options)
+    : options_(options),
+      ctx_(1),
+      workers_(ctx_, zmq::socket_type::router),
+      clients_(ctx_, zmq::socket_type::router),
+      files_(options.dir + "/jobs"),
+      heartbeat_(options.heartbeat_ms) {
+  std::filesystem::create_directories(options.dir);
+  store_ = std::make_unique<TaskStore>(options.dir + "/farm.sqlite");
+  for (zmq::socket_t* s : {&workers_, &clients_}) {
+    farm::configure_socket(*s);
+    // A reply to a peer that is gone fails loudly (EHOSTUNREACH) instead of vanishing.
+    s->set(zmq::sockopt::router_mandatory, 1);
+  }
+  workers_.bind(options.workers_endpoint);
+  clients_.bind(options.clients_endpoint);
+  // Jobs left unfinished by an earlier scheduler process: their job files cannot be reopened for
+  // writing yet (resuming them is the fault-tolerance work), so they end failed with the reason
+  // rather than waiting forever.
+  for (const JobRow& job : store_->jobs()) {
+    if (job.state == protocol::JobState::queued || job.state == protocol::JobState::running) {
+      store_->set_job_state(job.id, protocol::JobState::failed,
+                            "the scheduler restarted; resuming a job after a restart is not supported yet");
+      event("job_failed", job.id, 0, 0, "unfinished at scheduler start");
+    }
+  }
+}
+
+Scheduler::~Scheduler() { files_.close_all(); }
+
+std::string Scheduler::workers_endpoint() const { return farm::last_endpoint(workers_); }
+std::string Scheduler::clients_endpoint() const { return farm::last_endpoint(clients_); }
+
+void Scheduler::event(const std::string& kind, int64_t job, int64_t task, int64_t worker, const std::string& message,
+                      bool persist) {
+  const double now = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  nlohmann::json line = {{"time", now}, {"event", kind}};
+  if (job) line["job"] = job;
+  if (task) line["task"] = task;
+  if (worker) line["worker"] = worker;
+  if (!message.empty()) line["message"] = message;
+  std::fprintf(stderr, "%s\n", line.dump().c_str());
+  if (persist) store_->log_event(job, task, worker, kind, message);
+}
+
+void Scheduler::run(const std::atomic<bool>& stop) {
+  while (!stop) {
+    zmq::pollitem_t items[] = {{workers_.handle(), 0, ZMQ_POLLIN, 0}, {clients_.handle(), 0, ZMQ_POLLIN, 0}};
+    try {
+      zmq::poll(items, 2, heartbeat_ / 4);
+    } catch (const zmq::error_t& e) {
+      if (e.num() == EINTR) continue;  // a signal: the loop condition sees `stop`
+      throw;
+    }
+    // Drain what is queued on each socket, a bounded number per turn so neither side starves.
+    for (int k = 0; k < 256 && (items[0].revents & ZMQ_POLLIN); ++k) {
+      if (!(workers_.get(zmq::sockopt::events) & ZMQ_POLLIN)) break;
+      std::optional<farm::Routed> m = farm::recv_routed(workers_);
+      if (m) on_worker_message(m->identity, m->parts);
+    }
+    for (int k = 0; k < 64 && (items[1].revents & ZMQ_POLLIN); ++k) {
+      if (!(clients_.get(zmq::sockopt::events) & ZMQ_POLLIN)) break;
+      std::optional<farm::Routed> m = farm::recv_routed(clients_);
+      if (m) on_client_message(m->identity, m->parts);
+    }
+    dispatch();
+    preempt_starved();
+    heartbeats_and_liveness();
+  }
+}
+
+void Scheduler::send_worker(const std::string& identity, const protocol::Parts& parts) {
+  auto it = sessions_.find(identity);
+  try {
+    farm::send_parts_to(workers_, identity, parts);
+    if (it != sessions_.end()) it->second.last_sent = Clock::now();
+  } catch (const zmq::error_t& e) {
+    // EHOSTUNREACH: the peer is gone; its session is dropped at the next liveness check.
+    event("send_failed", 0, 0, it == sessions_.end() ? 0 : it->second.worker, e.what(), false);
+  }
+}
+
+void Scheduler::dispatch() {
+  for (auto& [identity, s] : sessions_) {
+    if (s.attempt != 0 || s.draining) continue;
+    std::optional<Claim> claim = store_->claim_next(s.worker);
+    if (!claim) return;  // nothing ready for anyone
+    if (!assign(identity, s, *claim)) continue;
+  }
+}
+
+bool Scheduler::assign(const std::string& identity, Session& s, const Claim& claim) {
+  const TaskRow& t = claim.task;
+  const JobRow job = store_->job(t.job);
+  protocol::AssignTask a;
+  a.attempt = claim.attempt;
+  a.task = t.id;
+  a.job = t.job;
+  a.kind = t.kind;
+  a.level = t.level;
+  a.first = t.first;
+  a.last = t.last;
+  a.frames = job.spec.frames;
+  a.levels = job.spec.levels;
+  a.hessian = job.spec.hessian;
+  a.scene = job.spec.scene;
+  if (t.kind == protocol::TaskKind::level) {
+    JobFile* f = files_.find(t.job);
+    if (!f) {  // cannot happen: level tasks wait for the hierarchy task
+      store_->release_task(t.id, "no job file");
+      event("dispatch_error", t.job, t.id, s.worker, "level task ready before the job file exists");
+      return false;
+    }
+    a.hierarchy_hash = f->hierarchy_hash;
+    if (!s.hierarchies.count(f->hierarchy_hash)) a.hierarchy_blob = f->hierarchy_blob;
+    // The preview continues horizontally from its own frames a-1 and a (and their barrier stiffness).
+    if (t.level == 0 && t.first > 0) {
+      a.own_before = as_vector(f->writer->read_frame(0, t.first - 1));
+      a.own_start = as_vector(f->writer->read_frame(0, t.first));
+      a.own_kappa = store_->frame_kappa(t.job, {0, t.first});
+    }
+  }
+  send_worker(identity, protocol::encode(a));
+  if (a.hierarchy_blob) s.hierarchies.insert(a.hierarchy_hash);
+  s.attempt = claim.attempt;
+  s.task = t.id;
+  s.job = t.job;
+  s.fed.clear();
+  s.progress = t.first;
+  event("task_assigned", t.job, t.id, s.worker,
+        "attempt " + std::to_string(claim.attempt) + ": " + protocol::to_string(t.kind) + " level " +
+            std::to_string(t.level) + " frames (" + std::to_string(t.first) + ", " + std::to_string(t.last) + "] to " +
+            s.name);
+  if (t.kind == protocol::TaskKind::level && t.level >= 1) feed_stored_frames(s, t);
+  return true;
+}
+
+// Sends the running attempt every stored frame of the level below it will ask for.
+void Scheduler::feed_stored_frames(Session& s, const TaskRow& task) {
+  const std::optional<farm::FrameRange> range = farm::fed_frames(as_new_task(task));
+  if (!range) return;
+  JobFile* f = files_.find(task.job);
+  auto it = std::find_if(sessions_.begin(), sessions_.end(), [&](const auto& kv) { return &kv.second == &s; });
+  for (int t : store_->stored_frames(task.job, range->level, range->first, range->last)) {
+    protocol::BelowFrame b;
+    b.attempt = s.attempt;
+    b.task = task.id;
+    b.level = range->level;
+    b.frame = t;
+    b.positions = as_vector(f->writer->read_frame(range->level, t));
+    send_worker(it->first, protocol::encode(b));
+    s.fed.insert(t);
+  }
+}
+
+// A frame of (job, level) was stored: every running attempt of the job one level up that will ask
+// for it gets it now.
+void Scheduler::feed_new_frame(int64_t job, int level, int frame) {
+  JobFile* f = files_.find(job);
+  std::optional<std::string> bytes;
+  protocol::BelowFrame b;
+  for (auto& [identity, s] : sessions_) {
+    if (s.attempt == 0 || s.job != job || s.draining || s.fed.count(frame)) continue;
+    const TaskRow t = store_->task(s.task);
+    if (t.kind != protocol::TaskKind::level || t.level != level + 1) continue;
+    const std::optional<farm::FrameRange> range = farm::fed_frames(as_new_task(t));
+    if (!range || frame < range->first || frame > range->last) continue;
+    if (b.positions.empty()) b.positions = as_vector(f->writer->read_frame(level, frame));
+    b.attempt = s.attempt;
+    b.task = t.id;
+    b.level = level;
+    b.frame = frame;
+    send_worker(identity, protocol::encode(b));
+    s.fed.insert(frame);
+  }
+}
+
+// A refinement task holds its worker while it waits for frames of the level below. When every
+// worker is held and the task that would produce the awaited frame is ready but has no worker (its
+// own worker was lost, say), nothing can move: the waiting attempt is taken back (cancelled,
+// its task ready again) so that its worker takes the producer. The taken-back task later starts
+// again from its first frame and gives the same frames (the solve is deterministic).
+void Scheduler::preempt_starved() {
+  for (const auto& [identity, s] : sessions_)
+    if (s.attempt == 0 && !s.draining) return;  // a free worker: dispatch serves what is ready
+  for (auto& [identity, s] : sessions_) {
+    if (s.attempt == 0 || s.draining) continue;
+    const TaskRow t = store_->task(s.task);
+    if (t.kind != protocol::TaskKind::level || t.level == 0) continue;
+    // Step progress -> progress + 1 needs frame `progress` of the level below (PD eq. 5).
+    const FrameKey need{t.level - 1, s.progress};
+    if (store_->frame_stored(t.job, need)) continue;
+    bool producer_waits = false;
+    for (const TaskRow& p : store_->tasks(t.job))
+      if (p.kind == protocol::TaskKind::level && p.level == need.level && p.first < need.frame && need.frame <= p.last)
+        producer_waits = p.state == protocol::TaskState::ready;
+    if (!producer_waits) continue;
+    protocol::CancelTask c;
+    c.attempt = s.attempt;
+    c.task = s.task;
+    c.reason = "preempted: the frames it waits for come from a task that has no worker";
+    send_worker(identity, protocol::encode(c));
+    store_->release_task(s.task, "preempted");
+    event("task_preempted", t.job, t.id, s.worker,
+          "attempt " + std::to_string(s.attempt) + " waited for level " + std::to_string(need.level) + " frame " +
+              std::to_string(need.frame));
+    s.draining = true;
+    return;  // one per turn: the freed worker may be all it takes
+  }
+}
+
+void Scheduler::heartbeats_and_liveness() {
+  const auto now = Clock::now();
+  std::vector<std::string> lost;
+  for (auto& [identity, s] : sessions_) {
+    if (now - s.last_heard > kLiveness * heartbeat_) {
+      lost.push_back(identity);
+      continue;
+    }
+    if (now - s.last_sent >= heartbeat_) send_worker(identity, protocol::encode(protocol::SchedulerHeartbeat{}));
+  }
+  for (const std::string& identity : lost)
+    lose(identity, "no message for " + std::to_string(kLiveness) + " heartbeats");
+}
+
+void Scheduler::lose(const std::string& identity, const std::string& why) {
+  auto it = sessions_.find(identity);
+  if (it == sessions_.end()) return;
+  Session& s = it->second;
+  event("worker_lost", s.job, s.task, s.worker, s.name + ": " + why);
+  if (s.attempt != 0 && !s.draining) {
+    const TaskRow t = store_->task(s.task);
+    if (t.state == protocol::TaskState::running && t.attempt == s.attempt) {
+      store_->release_task(s.task, "lost");
+      event("task_released", s.job, s.task, s.worker, "attempt " + std::to_string(s.attempt) + " lost with its worker");
+    }
+  }
+  store_->set_worker_state(s.worker, "lost");
+  sessions_.erase(it);
+}
+
+void Scheduler::end_attempt_of(Session& s) {
+  s.attempt = s.task = s.job = 0;
+  s.fed.clear();
+}
+
+void Scheduler::cancel_attempts_of_job(int64_t job, const std::string& reason) {
+  for (auto& [identity, s] : sessions_) {
+    if (s.job != job || s.attempt == 0 || s.draining) continue;
+    protocol::CancelTask c;
+    c.attempt = s.attempt;
+    c.task = s.task;
+    c.reason = reason;
+    send_worker(identity, protocol::encode(c));
+    event("task_cancel_sent", job, s.task, s.worker, "attempt " + std::to_string(s.attempt) + ": " + reason);
+    s.draining = true;
+  }
+}
+
+}  // namespace pd::scheduler

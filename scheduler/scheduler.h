@@ -1,0 +1,109 @@
+#pragma once
+// pd-scheduler's core: one thread, two ROUTER sockets (workers, clients), the task store
+// (store/task_store.h: the state that survives the process) and the job files. Each loop turn
+// receives what arrived, dispatches ready tasks to idle workers, feeds running refinement tasks the
+// frames of the level below as they are stored, sends heartbeats and drops workers that went
+// silent (zguide's Paranoid Pirate: kLiveness missed heartbeats).
+//
+// In memory only, and rebuilt from the messages that follow a restart: the worker sessions (which
+// socket identity is which worker, what each was sent). Everything else lives in SQLite.
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+
+#include <zmq.hpp>
+
+#include "protocol/protocol.h"
+#include "scheduler/job_files.h"
+#include "store/task_store.h"
+
+namespace pd::scheduler {
+
+struct SchedulerOptions {
+  std::string dir;  // FARM_DIR
+  std::string workers_endpoint = "tcp://127.0.0.1:7400";
+  std::string clients_endpoint = "tcp://127.0.0.1:7401";
+  int heartbeat_ms = 1000;
+};
+
+constexpr int kLiveness = 3;
+
+using Clock = std::chrono::steady_clock;
+
+// A connected worker (one DEALER identity).
+struct Session {
+  int64_t worker = 0;
+  std::string name;
+  Clock::time_point last_heard, last_sent;
+  std::set<std::string> hierarchies;  // hashes this worker has (sent to it, or built by it)
+  int64_t attempt = 0, task = 0, job = 0;  // the attempt it runs; 0 when idle
+  bool draining = false;  // told to cancel; free once a heartbeat says it runs nothing
+  std::set<int> fed;      // frames of the level below sent for the running attempt
+  int progress = 0;       // the last frame the running attempt reported (its first frame before any)
+};
+
+class Scheduler {
+ public:
+  explicit Scheduler(const SchedulerOptions& options);
+  ~Scheduler();
+
+  // The endpoints actually bound (port 0 resolved).
+  std::string workers_endpoint() const;
+  std::string clients_endpoint() const;
+
+  // Serves until `stop` becomes true.
+  void run(const std::atomic<bool>& stop);
+
+ private:
+  // worker_reports.cpp
+  void on_worker_message(const std::string& identity, const protocol::Parts& parts);
+  void on_report(const std::string& identity, protocol::Hello& m);
+  void on_report(const std::string& identity, protocol::WorkerHeartbeat& m);
+  void on_report(const std::string& identity, protocol::FrameReport& m);
+  void on_report(const std::string& identity, protocol::TaskDone& m);
+  void on_report(const std::string& identity, protocol::TaskFailed& m);
+  void on_report(const std::string& identity, protocol::HierarchyDone& m);
+  // The session running `attempt`, or nullptr after refusing the report (logged, Refused sent).
+  Session* attempt_session(const std::string& identity, int64_t attempt, int64_t task, const char* what);
+  void refuse(const std::string& identity, const std::string& reason);
+
+  // client_requests.cpp
+  void on_client_message(const std::string& identity, const protocol::Parts& parts);
+  protocol::Reply serve(protocol::SubmitJob& m);
+  protocol::Reply serve(protocol::RefineJob& m);
+  protocol::Reply serve(protocol::StatusRequest& m);
+  protocol::Reply serve(protocol::FetchRequest& m);
+  protocol::Reply serve(protocol::CancelJob& m);
+  protocol::Reply serve(protocol::WorkersRequest& m);
+  protocol::JobStatus job_status(const JobRow& job);
+
+  // scheduler.cpp
+  void dispatch();
+  bool assign(const std::string& identity, Session& s, const Claim& claim);
+  void feed_stored_frames(Session& s, const TaskRow& task);
+  void feed_new_frame(int64_t job, int level, int frame);
+  void send_worker(const std::string& identity, const protocol::Parts& parts);
+  void preempt_starved();
+  void heartbeats_and_liveness();
+  void lose(const std::string& identity, const std::string& why);
+  void end_attempt_of(Session& s);
+  void cancel_attempts_of_job(int64_t job, const std::string& reason);
+  void event(const std::string& kind, int64_t job, int64_t task, int64_t worker, const std::string& message,
+             bool persist = true);
+
+  SchedulerOptions options_;
+  zmq::context_t ctx_;
+  zmq::socket_t workers_, clients_;
+  std::unique_ptr<TaskStore> store_;
+  JobFiles files_;
+  std::map<std::string, Session> sessions_;  // by identity
+  std::chrono::milliseconds heartbeat_;
+  // Per job and level: summed solve time and count of frames reported (for ETAs; approximate).
+  std::map<std::pair<int64_t, int>, std::pair<double, int>> step_seconds_;
+};
+
+}  // namespace pd::scheduler

@@ -1,0 +1,211 @@
+// pd-scheduler: what it does with each worker report (protocol/protocol.h, "Reports").
+#include <algorithm>
+#include <cmath>
+
+#include "farm/messaging.h"
+#include "scheduler/scheduler.h"
+#include "util/input_error.h"
+
+namespace pd::scheduler {
+
+namespace {
+
+// The barrier stiffness stat of a frame (J/m^4), kept in the task store so that a task continuing
+// horizontally from this frame restarts with it (progressive/level_task.h).
+std::optional<double> kappa_of(const std::vector<protocol::Stat>& stats) {
+  for (const auto& [name, value] : stats)
+    if (name == "barrier_stiffness") return value;
+  return std::nullopt;
+}
+
+}  // namespace
+
+void Scheduler::refuse(const std::string& identity, const std::string& reason) {
+  auto it = sessions_.find(identity);
+  event("report_refused", it == sessions_.end() ? 0 : it->second.job, it == sessions_.end() ? 0 : it->second.task,
+        it == sessions_.end() ? 0 : it->second.worker, reason);
+  protocol::Refused r;
+  r.reason = reason;
+  send_worker(identity, protocol::encode(r));
+}
+
+void Scheduler::on_worker_message(const std::string& identity, const protocol::Parts& parts) {
+  protocol::Report report;
+  try {
+    report = protocol::decode_report(parts);
+  } catch (const protocol::ProtocolError& e) {
+    refuse(identity, std::string("malformed report: ") + e.what());
+    return;
+  }
+  auto it = sessions_.find(identity);
+  if (it == sessions_.end() && !std::holds_alternative<protocol::Hello>(report)) {
+    refuse(identity, "unknown worker: send hello first");
+    return;
+  }
+  if (it != sessions_.end()) it->second.last_heard = Clock::now();
+  std::visit([&](auto& m) { on_report(identity, m); }, report);
+}
+
+void Scheduler::on_report(const std::string& identity, protocol::Hello& m) {
+  if (sessions_.count(identity)) lose(identity, "said hello again");
+  Session s;
+  s.worker = store_->add_worker(m.name, m.host, m.version, m.cores);
+  s.name = m.name;
+  s.last_heard = s.last_sent = Clock::now();
+  sessions_[identity] = s;
+  protocol::Welcome w;
+  w.worker = s.worker;
+  w.heartbeat_ms = options_.heartbeat_ms;
+  send_worker(identity, protocol::encode(w));
+  event("worker_joined", 0, 0, s.worker,
+        m.name + " on " + m.host + ", " + std::to_string(m.cores) + " cores, version " + m.version);
+}
+
+void Scheduler::on_report(const std::string& identity, protocol::WorkerHeartbeat& m) {
+  Session& s = sessions_.at(identity);
+  // A cancelled attempt's worker is free again once it says it runs nothing (or something else).
+  if (s.draining && m.attempt != s.attempt) {
+    end_attempt_of(s);
+    s.draining = false;
+    store_->set_worker_state(s.worker, "idle");
+  }
+  store_->touch_worker(s.worker);
+}
+
+Session* Scheduler::attempt_session(const std::string& identity, int64_t attempt, int64_t task, const char* what) {
+  Session& s = sessions_.at(identity);
+  if (s.attempt == 0 || s.attempt != attempt || s.task != task) {
+    refuse(identity, std::string(what) + " for attempt " + std::to_string(attempt) + " of task " +
+                         std::to_string(task) + ", which is not this worker's running attempt");
+    return nullptr;
+  }
+  if (s.draining) return nullptr;  // cancelled: late reports are dropped without a word
+  return &s;
+}
+
+void Scheduler::on_report(const std::string& identity, protocol::FrameReport& m) {
+  Session* s = attempt_session(identity, m.attempt, m.task, "frame");
+  if (!s) return;
+  const TaskRow t = store_->task(m.task);
+  JobFile* f = files_.find(t.job);
+  std::string bad;
+  const int lo = t.first == 0 ? 0 : t.first + 1;
+  if (t.kind != protocol::TaskKind::level || !f)
+    bad = "a frame for a task that solves no frames";
+  else if (m.level != t.level)
+    bad = "frame of level " + std::to_string(m.level) + " for a task of level " + std::to_string(t.level);
+  else if (m.frame < lo || m.frame > t.last)
+    bad = "frame " + std::to_string(m.frame) + " outside the task's frames [" + std::to_string(lo) + ", " +
+          std::to_string(t.last) + "]";
+  else if (m.positions.size() != 3 * static_cast<std::size_t>(f->vertices[m.level]))
+    bad = "frame with " + std::to_string(m.positions.size() / 3) + " vertices, level " + std::to_string(m.level) +
+          " has " + std::to_string(f->vertices[m.level]);
+  else if (!m.center_of_mass.empty() && m.center_of_mass.size() != 3 * static_cast<std::size_t>(f->objects[m.level]))
+    bad = "center_of_mass with " + std::to_string(m.center_of_mass.size() / 3) + " objects, the level has " +
+          std::to_string(f->objects[m.level]);
+  if (!bad.empty()) {
+    refuse(identity, bad);
+    return;
+  }
+  for (double x : m.positions) {
+    if (!std::isfinite(x)) {
+      store_->fail_task(t.id, "frame " + std::to_string(m.frame) + " of level " + std::to_string(m.level) +
+                                  " is not finite (the solver diverged)");
+      event("task_failed", t.job, t.id, s->worker, "non-finite frame " + std::to_string(m.frame));
+      end_attempt_of(*s);
+      cancel_attempts_of_job(t.job, "job failed");
+      return;
+    }
+  }
+  FrameStats stats;
+  stats.scalars = m.stats;
+  if (!m.center_of_mass.empty())
+    stats.center_of_mass = Eigen::Map<const ObjectPoints>(m.center_of_mass.data(),
+                                                          static_cast<Eigen::Index>(m.center_of_mass.size() / 3), 3);
+  try {
+    // Written and flushed to the job file first, then recorded: the store never calls a frame
+    // stored that the file does not hold.
+    f->writer->write_frame(m.level, m.frame,
+                           Eigen::Map<const Positions>(m.positions.data(),
+                                                       static_cast<Eigen::Index>(m.positions.size() / 3), 3),
+                           stats);
+  } catch (const InputError& e) {
+    refuse(identity, e.what());  // a bad statistic name, say: the frame is not stored
+    return;
+  }
+  store_->record_frame(t.job, {m.level, m.frame}, kappa_of(m.stats));
+  s->progress = std::max(s->progress, m.frame);
+  for (const auto& [name, value] : m.stats) {
+    if (name != "solve_seconds") continue;
+    auto& [sum, count] = step_seconds_[{t.job, m.level}];
+    sum += value;
+    ++count;
+  }
+  event("frame_stored", t.job, t.id, s->worker,
+        "level " + std::to_string(m.level) + " frame " + std::to_string(m.frame), false);
+  feed_new_frame(t.job, m.level, m.frame);
+}
+
+void Scheduler::on_report(const std::string& identity, protocol::TaskDone& m) {
+  Session* s = attempt_session(identity, m.attempt, m.task, "task_done");
+  if (!s) return;
+  const TaskRow t = store_->task(m.task);
+  const int lo = t.first == 0 ? 0 : t.first + 1;
+  const std::size_t stored = store_->stored_frames(t.job, t.level, lo, t.last).size();
+  if (t.kind != protocol::TaskKind::level || stored != static_cast<std::size_t>(t.last - lo + 1)) {
+    const std::string why = "reported done with " + std::to_string(stored) + " of " +
+                            std::to_string(t.last - lo + 1) + " frames stored";
+    refuse(identity, why);
+    store_->fail_task(t.id, why);
+    event("task_failed", t.job, t.id, s->worker, why);
+    end_attempt_of(*s);
+    cancel_attempts_of_job(t.job, "job failed");
+    return;
+  }
+  store_->finish_task(t.id);
+  event("task_done", t.job, t.id, s->worker,
+        "level " + std::to_string(t.level) + " frames (" + std::to_string(t.first) + ", " + std::to_string(t.last) +
+            "] in " + std::to_string(m.seconds) + " s, " + std::to_string(m.unconverged_steps) + " steps unconverged");
+  end_attempt_of(*s);
+  if (store_->job(t.job).state == protocol::JobState::done) event("job_done", t.job, 0, 0, "");
+}
+
+void Scheduler::on_report(const std::string& identity, protocol::TaskFailed& m) {
+  Session* s = attempt_session(identity, m.attempt, m.task, "task_failed");
+  if (!s) return;
+  const TaskRow t = store_->task(m.task);
+  store_->fail_task(t.id, m.message);
+  event("task_failed", t.job, t.id, s->worker, m.message);
+  event("job_failed", t.job, 0, 0, "task " + std::to_string(t.id) + " failed: " + m.message);
+  end_attempt_of(*s);
+  cancel_attempts_of_job(t.job, "job failed");
+}
+
+void Scheduler::on_report(const std::string& identity, protocol::HierarchyDone& m) {
+  Session* s = attempt_session(identity, m.attempt, m.task, "hierarchy_done");
+  if (!s) return;
+  const TaskRow t = store_->task(m.task);
+  const JobRow job = store_->job(t.job);
+  if (t.kind != protocol::TaskKind::hierarchy) {
+    refuse(identity, "hierarchy_done for a level task");
+    return;
+  }
+  try {
+    files_.create(t.job, job.spec.scene.text, job.spec.frames, job.spec.levels, m.hash, m.blob);
+  } catch (const std::exception& e) {
+    store_->fail_task(t.id, e.what());
+    event("task_failed", t.job, t.id, s->worker, e.what());
+    end_attempt_of(*s);
+    cancel_attempts_of_job(t.job, "job failed");
+    return;
+  }
+  s->hierarchies.insert(m.hash);
+  store_->set_hierarchy_hash(t.job, m.hash);
+  store_->finish_task(t.id);
+  std::string sizes;
+  for (int v : m.vertices) sizes += (sizes.empty() ? "" : "/") + std::to_string(v);
+  event("hierarchy_stored", t.job, t.id, s->worker, std::to_string(m.levels) + " levels, " + sizes + " vertices");
+  end_attempt_of(*s);
+}
+
+}  // namespace pd::scheduler

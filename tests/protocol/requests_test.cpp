@@ -1,0 +1,203 @@
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "protocol/protocol.h"
+
+namespace pd::protocol {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+std::string error_of(const Parts& parts) {
+  try {
+    decode_request(parts);
+  } catch (const ProtocolError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    return std::string("(not a ProtocolError: ") + e.what() + ")";
+  }
+  return "(no ProtocolError thrown)";
+}
+
+::testing::AssertionResult has(const std::string& text, const std::string& part) {
+  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
+}
+
+Json header(const Parts& p) { return Json::parse(p.at(0)); }
+
+Parts with_header(Parts p, const Json& h) {
+  p.at(0) = h.dump();
+  return p;
+}
+
+Parts with_field(const Parts& p, const std::string& name, const Json& value) {
+  Json h = header(p);
+  h[name] = value;
+  return with_header(p, h);
+}
+
+template <typename T>
+T round_trip(const T& m) {
+  const Parts parts = encode(m);
+  EXPECT_EQ(parts, encode(Request{m}));
+  EXPECT_EQ(parts.size(), 1u);  // no request has data parts
+  const Request r = decode_request(parts);
+  EXPECT_TRUE(std::holds_alternative<T>(r));
+  return std::get<T>(r);
+}
+
+int check_every_field_required(const Parts& parts) {
+  const Json h = header(parts);
+  const std::string type = h.at("type");
+  int checked = 0;
+  for (auto it = h.begin(); it != h.end(); ++it) {
+    if (it.key() == "v" || it.key() == "type") continue;
+    Json without = h;
+    without.erase(it.key());
+    EXPECT_EQ(error_of(with_header(parts, without)), type + ": field '" + it.key() + "': missing");
+    ++checked;
+  }
+  return checked;
+}
+
+int check_every_field_typed(const Parts& parts) {
+  const Json h = header(parts);
+  const std::string type = h.at("type");
+  int checked = 0;
+  for (auto it = h.begin(); it != h.end(); ++it) {
+    if (it.key() == "v" || it.key() == "type") continue;
+    const Json wrong = it.value().is_string() ? Json(5) : Json("x");
+    EXPECT_TRUE(has(error_of(with_field(parts, it.key(), wrong)), type + ": field '" + it.key() + "': expected"));
+    ++checked;
+  }
+  return checked;
+}
+
+SubmitJob sample_submit() {
+  SubmitJob m;
+  m.scene = {"../scenes/cube trampoline.json", "{\n  \"name\": \"cube-trampoline\"\n}\n",
+             {{"meshes/cube.obj", "v 0 0 0\nv 1 0 0\n"}, {"meshes/ñet.obj", ""}, {"tab\there", "\u00e9\u4e2d"}}};
+  m.preview_only = true;
+  m.levels = 4;
+  m.subsets = 3;
+  m.priority = -2;
+  m.frames = 120;
+  m.preview_chunk = 10;
+  m.hessian = "coarse";
+  return m;
+}
+
+TEST(ProtocolRequests, SubmitJobRoundTripsEveryField) {
+  const SubmitJob m = sample_submit();
+  const SubmitJob b = round_trip(m);
+  EXPECT_EQ(b.scene.name, m.scene.name);
+  EXPECT_EQ(b.scene.text, m.scene.text);
+  ASSERT_EQ(b.scene.files.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(b.scene.files[i].path, m.scene.files[i].path);
+    EXPECT_EQ(b.scene.files[i].content, m.scene.files[i].content);
+  }
+  EXPECT_EQ(b.preview_only, m.preview_only);
+  EXPECT_EQ(b.levels, m.levels);
+  EXPECT_EQ(b.subsets, m.subsets);
+  EXPECT_EQ(b.priority, m.priority);
+  EXPECT_EQ(b.frames, m.frames);
+  EXPECT_EQ(b.preview_chunk, m.preview_chunk);
+  EXPECT_EQ(b.hessian, m.hessian);
+  const SubmitJob d = round_trip(SubmitJob{});
+  EXPECT_EQ(d.hessian, "lagged");
+  EXPECT_TRUE(d.scene.files.empty());
+  EXPECT_FALSE(d.preview_only);
+}
+
+TEST(ProtocolRequests, JobRequestsRoundTrip) {
+  const RefineJob r = round_trip(RefineJob{12, 4});
+  EXPECT_EQ(r.job, 12);
+  EXPECT_EQ(r.subsets, 4);
+  EXPECT_EQ(round_trip(StatusRequest{0}).job, 0);
+  EXPECT_EQ(round_trip(StatusRequest{(int64_t{1} << 40) + 3}).job, (int64_t{1} << 40) + 3);
+  EXPECT_EQ(round_trip(FetchRequest{5}).job, 5);
+  EXPECT_EQ(round_trip(CancelJob{6}).job, 6);
+  round_trip(WorkersRequest{});
+  // status, fetch and cancel_job share a shape but keep their own types.
+  EXPECT_TRUE(std::holds_alternative<FetchRequest>(decode_request(encode(FetchRequest{5}))));
+  EXPECT_TRUE(std::holds_alternative<CancelJob>(decode_request(encode(CancelJob{5}))));
+}
+
+TEST(ProtocolRequests, MessagesOfOtherFamiliesAreRefused) {
+  EXPECT_EQ(error_of(encode(Welcome{})), "welcome: not a client request (it is a scheduler command)");
+  EXPECT_EQ(error_of(encode(Hello{})), "hello: not a client request (it is a worker report)");
+  EXPECT_EQ(error_of(encode(StatusReply{})), "status_reply: not a client request (it is a scheduler reply)");
+}
+
+TEST(ProtocolRequests, EveryRequiredFieldIsCheckedByName) {
+  EXPECT_EQ(check_every_field_required(encode(sample_submit())), 8);
+  EXPECT_EQ(check_every_field_required(encode(RefineJob{1, 2})), 2);
+  EXPECT_EQ(check_every_field_required(encode(StatusRequest{1})), 1);
+  EXPECT_EQ(check_every_field_required(encode(FetchRequest{1})), 1);
+  EXPECT_EQ(check_every_field_required(encode(CancelJob{1})), 1);
+  const Parts parts = encode(sample_submit());
+  int checked = 0;
+  for (const char* name : {"name", "text", "files"}) {
+    Json h = header(parts);
+    h["scene"].erase(name);
+    EXPECT_EQ(error_of(with_header(parts, h)), std::string("submit: field 'scene.") + name + "': missing");
+    ++checked;
+  }
+  for (const char* name : {"path", "content"}) {
+    Json h = header(parts);
+    h["scene"]["files"][2].erase(name);
+    EXPECT_EQ(error_of(with_header(parts, h)), std::string("submit: field 'scene.files[2].") + name + "': missing");
+    ++checked;
+  }
+  EXPECT_EQ(checked, 5);
+}
+
+TEST(ProtocolRequests, EveryFieldOfTheWrongTypeIsRefusedByName) {
+  EXPECT_EQ(check_every_field_typed(encode(sample_submit())), 8);
+  EXPECT_EQ(check_every_field_typed(encode(RefineJob{1, 2})), 2);
+  EXPECT_EQ(check_every_field_typed(encode(StatusRequest{1})), 1);
+  EXPECT_EQ(check_every_field_typed(encode(FetchRequest{1})), 1);
+  EXPECT_EQ(check_every_field_typed(encode(CancelJob{1})), 1);
+  const Parts parts = encode(sample_submit());
+  Json h = header(parts);
+  h["scene"]["files"] = Json::array({"meshes/cube.obj"});
+  EXPECT_TRUE(has(error_of(with_header(parts, h)), "submit: field 'scene.files[0]': expected an object, got string"));
+  h["scene"]["files"] = Json::object();
+  EXPECT_TRUE(has(error_of(with_header(parts, h)), "submit: field 'scene.files': expected an array, got object"));
+}
+
+TEST(ProtocolRequests, OutOfRangeValuesAreRefusedByName) {
+  const Parts submit = encode(sample_submit());
+  EXPECT_TRUE(has(error_of(with_field(submit, "subsets", -1)), "submit: field 'subsets': -1 is negative"));
+  EXPECT_TRUE(
+      has(error_of(with_field(submit, "frames", int64_t{1} << 33)), "submit: field 'frames': 8589934592 is out"));
+  EXPECT_TRUE(has(error_of(with_field(submit, "priority", -(int64_t{1} << 33))), "submit: field 'priority'"));
+  EXPECT_EQ(decode_request(with_field(submit, "priority", -7)).index(), 0u);  // priorities may be negative
+  EXPECT_EQ(error_of(with_field(submit, "preview_only", "yes")),
+            "submit: field 'preview_only': expected a boolean, got string");
+  EXPECT_TRUE(has(error_of(with_field(encode(CancelJob{3}), "job", -3)), "cancel_job: field 'job': -3 is negative"));
+  EXPECT_EQ(error_of(with_field(encode(FetchRequest{3}), "job", 3.0)),
+            "fetch: field 'job': expected an integer, got number 3.0");
+}
+
+TEST(ProtocolRequests, WrongPartCountsAreRefused) {
+  Parts submit = encode(sample_submit());
+  submit.push_back("scene bytes");
+  EXPECT_EQ(error_of(submit), "submit: 2 parts, expected 1");
+  Parts workers = encode(WorkersRequest{});
+  workers.push_back("");
+  EXPECT_EQ(error_of(workers), "workers: 2 parts, expected 1");
+  Parts fetch = encode(FetchRequest{1});
+  fetch.push_back("");
+  fetch.push_back("");
+  EXPECT_EQ(error_of(fetch), "fetch: 3 parts, expected 1");
+  Parts refine = encode(RefineJob{1, 2});
+  refine.push_back("");
+  EXPECT_EQ(error_of(refine), "refine: 2 parts, expected 1");
+}
+
+}  // namespace
+}  // namespace pd::protocol

@@ -1,0 +1,61 @@
+// pd-worker: connects to a pd-scheduler, takes one task at a time, solves it, streams frames back.
+// Several per machine are normal (one per core). Needs nothing but the scheduler's endpoint: the
+// scene, the hierarchy and the input frames all come over the wire.
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "util/process_setup.h"
+#include "worker/worker.h"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+void on_signal(int) { g_stop = true; }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  pd::limit_openmp_threads(argv);
+  CLI::App app{"pd-worker: solves progressive-dynamics tasks for a pd-scheduler"};
+  pd::worker::WorkerOptions options;
+  app.add_option("--connect", options.endpoint, "The scheduler's worker endpoint, e.g. tcp://127.0.0.1:7400")
+      ->required();
+  app.add_option("--name", options.name, "Name shown by pd workers (default host:pid)");
+  app.add_option("--scratch", options.scratch_dir, "Folder for received scene files (default /tmp/pd-worker-<pid>)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::fprintf(stderr, "pd-worker: error: %s\nRun with --help for more information.\n", e.what());
+    return 2;
+  }
+  const std::string pid = std::to_string(getpid());
+  if (options.name.empty()) {
+    char host[256] = {};
+    gethostname(host, sizeof host - 1);
+    options.name = std::string(host) + ":" + pid;
+  }
+  if (options.scratch_dir.empty()) options.scratch_dir = "/tmp/pd-worker-" + pid;
+  if (options.endpoint.rfind("tcp://", 0) != 0 && options.endpoint.rfind("ipc://", 0) != 0) {
+    std::fprintf(stderr, "pd-worker: error: --connect: expected tcp://HOST:PORT or ipc://PATH, got '%s'\n",
+                 options.endpoint.c_str());
+    return 2;
+  }
+  struct sigaction sa = {};
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  try {
+    return pd::worker::run_worker(options, g_stop);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "pd-worker: error: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,276 @@
+#include "worker/task_runner.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <stdexcept>
+
+#include "farm/scene_source.h"
+#include "progressive/contact_control.h"
+#include "progressive/frame_stats.h"
+#include "progressive/level_system.h"
+#include "progressive/level_task.h"
+#include "progressive/prolonged_term.h"
+#include "store/hierarchy_store.h"
+
+namespace pd::worker {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Thrown inside the solver thread when the attempt is cancelled; ends it without a report.
+struct Cancelled {};
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot read");
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+void write_file(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  if (!out) throw std::runtime_error(path + ": cannot write");
+}
+
+Eigen::VectorXd to_vector(const std::vector<double>& v) {
+  return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+}
+
+// The scene of an assignment with the job's frame and level counts (the job may override both).
+Scene job_scene(const protocol::AssignTask& task, const std::string& job_dir) {
+  fs::create_directories(job_dir);
+  Scene scene = farm::scene_from_source(task.scene, job_dir);
+  if (task.frames >= 1) scene.frames = task.frames;
+  if (task.levels >= 1) scene.hierarchy.levels = task.levels;
+  return scene;
+}
+
+}  // namespace
+
+std::shared_ptr<const SceneHierarchy> HierarchyCache::find(const std::string& hash) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = by_hash_.find(hash);
+  return it == by_hash_.end() ? nullptr : it->second;
+}
+
+void HierarchyCache::put(const std::string& hash, std::shared_ptr<const SceneHierarchy> h) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  by_hash_[hash] = std::move(h);
+}
+
+bool HierarchyCache::has(const std::string& hash) const { return find(hash) != nullptr; }
+
+TaskRunner::TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache)
+    : wake_fd_(wake_fd), scratch_dir_(std::move(scratch_dir)), cache_(cache) {
+  fs::create_directories(scratch_dir_);
+}
+
+TaskRunner::~TaskRunner() {
+  cancel();
+  if (thread_.joinable()) thread_.join();
+}
+
+void TaskRunner::start(protocol::AssignTask task) {
+  poll();
+  if (thread_.joinable()) throw std::logic_error("TaskRunner::start while an attempt runs");
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    below_.clear();
+    attempt_ = task.attempt;
+    cancelled_ = false;
+    finished_ = false;
+  }
+  thread_ = std::thread([this, t = std::move(task)]() mutable { run(std::move(t)); });
+}
+
+void TaskRunner::feed(const protocol::BelowFrame& frame) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (frame.attempt != attempt_ || cancelled_) return;
+  below_[frame.frame] = to_vector(frame.positions);
+  below_arrived_.notify_all();
+}
+
+void TaskRunner::cancel() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  cancelled_ = true;
+  below_arrived_.notify_all();
+}
+
+int64_t TaskRunner::attempt() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return finished_ ? 0 : attempt_;
+}
+
+bool TaskRunner::busy() const { return attempt() != 0; }
+
+void TaskRunner::poll() {
+  bool done;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    done = finished_;
+  }
+  if (done && thread_.joinable()) thread_.join();
+}
+
+std::vector<protocol::Parts> TaskRunner::take_outbox() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<protocol::Parts> out;
+  out.swap(outbox_);
+  return out;
+}
+
+void TaskRunner::post(protocol::Parts parts) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (cancelled_) throw Cancelled{};
+    outbox_.push_back(std::move(parts));
+  }
+  const uint64_t one = 1;
+  if (write(wake_fd_, &one, sizeof one) < 0) {
+    // eventfd writes fail only on counter overflow; the connection loop also polls on a timer.
+  }
+}
+
+Eigen::VectorXd TaskRunner::wait_below(int t) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  below_arrived_.wait(lock, [&] { return cancelled_ || below_.count(t) != 0; });
+  if (cancelled_) throw Cancelled{};
+  return below_.at(t);
+}
+
+void TaskRunner::run(protocol::AssignTask task) {
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    protocol::Parts last;
+    if (task.kind == protocol::TaskKind::hierarchy) {
+      last = run_hierarchy(task);
+    } else {
+      run_level(task);
+      protocol::TaskDone done;
+      done.attempt = task.attempt;
+      done.task = task.task;
+      done.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      last = protocol::encode(done);
+    }
+    finish(std::move(last));
+  } catch (const Cancelled&) {
+    finish({});
+  } catch (const std::exception& e) {
+    protocol::TaskFailed failed;
+    failed.attempt = task.attempt;
+    failed.task = task.task;
+    failed.message = e.what();
+    protocol::Parts parts;
+    try {
+      parts = protocol::encode(failed);
+    } catch (const protocol::ProtocolError&) {
+      // The message is not valid UTF-8 (text from a file, say): send it with the odd bytes masked.
+      for (char& c : failed.message)
+        if (static_cast<unsigned char>(c) >= 0x80) c = '?';
+      parts = protocol::encode(failed);
+    }
+    finish(std::move(parts));
+  }
+}
+
+// The attempt's last report and the end of the attempt in one step: by the time the connection
+// thread sends that report (and the scheduler answers with the next task), the runner is free.
+void TaskRunner::finish(protocol::Parts last) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!last.empty() && !cancelled_) outbox_.push_back(std::move(last));
+    finished_ = true;
+  }
+  const uint64_t one = 1;
+  if (write(wake_fd_, &one, sizeof one) < 0) {
+    // only on counter overflow; the connection loop also wakes on a timer
+  }
+}
+
+protocol::Parts TaskRunner::run_hierarchy(const protocol::AssignTask& task) {
+  const std::string job_dir = scratch_dir_ + "/job-" + std::to_string(task.job);
+  const Scene scene = job_scene(task, job_dir);
+  const std::string path = job_dir + "/hierarchy-" + std::to_string(task.attempt) + ".h5";
+  auto h = std::make_shared<const SceneHierarchy>(load_or_build_hierarchy(scene, path));
+  // Every level must start admissibly (a coarse level can overlap where the finest does not), as
+  // pd simulate checks before it writes anything: the job fails here with the same message.
+  LevelSystemOptions system;
+  system.hessian = parse_prolonged_hessian(task.hessian);
+  for (int l = 0; l < h->num_levels(); ++l) {
+    try {
+      check_start_state(scene_at_level(scene, *h, l), build_level_system(scene, *h, l, system));
+    } catch (const std::exception& e) {
+      throw std::runtime_error(std::string(e.what()) + " (at hierarchy level " + std::to_string(l) + " of " +
+                               std::to_string(h->num_levels()) + ", 0 = coarsest)");
+    }
+  }
+  protocol::HierarchyDone done;
+  done.attempt = task.attempt;
+  done.task = task.task;
+  done.hash = h->hash;
+  done.levels = h->num_levels();
+  for (const SceneLevel& lv : h->levels) done.vertices.push_back(static_cast<int>(lv.rest.V.rows()));
+  done.blob = read_file(path);
+  fs::remove(path);
+  cache_.put(h->hash, h);
+  return protocol::encode(done);
+}
+
+std::shared_ptr<const SceneHierarchy> TaskRunner::hierarchy_for(const protocol::AssignTask& task,
+                                                                const std::string& job_dir) {
+  if (task.hierarchy_blob) {
+    const std::string path = job_dir + "/received-" + std::to_string(task.attempt) + ".h5";
+    write_file(path, *task.hierarchy_blob);
+    std::optional<SceneHierarchy> read = read_hierarchy(path);
+    fs::remove(path);
+    if (!read) throw std::runtime_error("the hierarchy sent with task " + std::to_string(task.task) + " has no hash");
+    if (read->hash != task.hierarchy_hash)
+      throw std::runtime_error("the hierarchy sent with task " + std::to_string(task.task) + " has hash " + read->hash +
+                               ", the task names " + task.hierarchy_hash);
+    auto h = std::make_shared<const SceneHierarchy>(std::move(*read));
+    cache_.put(h->hash, h);
+    return h;
+  }
+  std::shared_ptr<const SceneHierarchy> h = cache_.find(task.hierarchy_hash);
+  if (!h) throw std::runtime_error("no hierarchy " + task.hierarchy_hash + " on this worker and none was sent");
+  return h;
+}
+
+void TaskRunner::run_level(const protocol::AssignTask& task) {
+  const std::string job_dir = scratch_dir_ + "/job-" + std::to_string(task.job);
+  const Scene scene = job_scene(task, job_dir);
+  const std::shared_ptr<const SceneHierarchy> h = hierarchy_for(task, job_dir);
+  LevelTaskInputs inputs;
+  if (task.level >= 1) inputs.below = [this](int t) { return wait_below(t); };
+  if (task.own_before && task.own_start) {
+    inputs.own_before = to_vector(*task.own_before);
+    inputs.own_start = to_vector(*task.own_start);
+    inputs.own_kappa = task.own_kappa;
+  }
+  LevelTaskOptions options;
+  options.system.hessian = parse_prolonged_hessian(task.hessian);
+  const auto sink = [&](const FrameRecord& r) {
+    protocol::FrameReport report;
+    report.attempt = task.attempt;
+    report.task = task.task;
+    report.level = task.level;
+    report.frame = r.frame;
+    report.positions.assign(r.x.data(), r.x.data() + r.x.size());
+    const FrameStats stats = frame_stats(r);
+    report.stats = stats.scalars;
+    report.center_of_mass.assign(stats.center_of_mass.data(),
+                                 stats.center_of_mass.data() + stats.center_of_mass.size());
+    post(protocol::encode(report));
+  };
+  solve_level_task(scene, *h, {task.level, task.first, task.last}, inputs, sink, options);
+}
+
+}  // namespace pd::worker

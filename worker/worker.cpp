@@ -1,0 +1,210 @@
+#include "worker/worker.h"
+
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <set>
+#include <thread>
+
+#include <zmq.hpp>
+
+#include "farm/messaging.h"
+#include "worker/task_runner.h"
+
+#ifndef PD_VERSION
+#define PD_VERSION "unknown"
+#endif
+
+namespace pd::worker {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+void log_line(const WorkerOptions& o, const std::string& event, const std::string& detail) {
+  std::fprintf(stderr, "pd-worker %s: %s%s%s\n", o.name.c_str(), event.c_str(), detail.empty() ? "" : ": ",
+               detail.c_str());
+}
+
+std::string host_name() {
+  char buf[256] = {};
+  if (gethostname(buf, sizeof buf - 1) != 0) return "unknown";
+  return buf;
+}
+
+// One connection's life: from Hello until the scheduler is lost or the worker stops. Returns true
+// when it ended because the scheduler went silent (reconnect), false when asked to stop.
+class Session {
+ public:
+  Session(zmq::context_t& ctx, const WorkerOptions& o, TaskRunner& runner, int wake_fd)
+      : socket_(ctx, zmq::socket_type::dealer), options_(o), runner_(runner), wake_fd_(wake_fd) {
+    farm::configure_socket(socket_);
+    socket_.connect(o.endpoint);
+    protocol::Hello hello;
+    hello.name = o.name;
+    hello.version = PD_VERSION;
+    hello.cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    hello.host = host_name();
+    farm::send_parts(socket_, protocol::encode(hello));
+    heartbeat_ = std::chrono::milliseconds(o.heartbeat_ms);
+    last_heard_ = last_sent_ = Clock::now();
+  }
+
+  bool run(const std::atomic<bool>& stop) {
+    while (!stop) {
+      zmq::pollitem_t items[] = {{socket_.handle(), 0, ZMQ_POLLIN, 0}, {nullptr, wake_fd_, ZMQ_POLLIN, 0}};
+      try {
+        zmq::poll(items, 2, heartbeat_ / 4);
+      } catch (const zmq::error_t& e) {
+        if (e.num() == EINTR) continue;  // a signal: the loop condition sees `stop`
+        throw;
+      }
+      if (items[1].revents & ZMQ_POLLIN) {
+        uint64_t count;
+        if (read(wake_fd_, &count, sizeof count) < 0) {
+        }
+      }
+      if (items[0].revents & ZMQ_POLLIN) {
+        std::optional<protocol::Parts> parts = farm::recv_parts(socket_);
+        if (parts) handle(*parts);
+      }
+      flush_runner();
+      const auto now = Clock::now();
+      if (now - last_sent_ >= heartbeat_) send_heartbeat();
+      if (now - last_heard_ > kLiveness * heartbeat_) {
+        log_line(options_, "scheduler lost", "no message for " + std::to_string(kLiveness) + " heartbeats");
+        if (runner_.busy()) runner_.cancel();
+        return true;
+      }
+    }
+    return false;
+  }
+
+  bool welcomed() const { return welcomed_; }
+
+ private:
+  void send(const protocol::Parts& parts) {
+    farm::send_parts(socket_, parts);
+    last_sent_ = Clock::now();
+  }
+
+  void send_heartbeat() {
+    protocol::WorkerHeartbeat hb;
+    hb.attempt = runner_.attempt();
+    send(protocol::encode(hb));
+  }
+
+  // Reports of the running attempt go out in the order they were made; a finished attempt's
+  // thread is joined and an immediate heartbeat says the worker is free.
+  void flush_runner() {
+    for (const protocol::Parts& p : runner_.take_outbox()) send(p);
+    const bool was_busy = running_attempt_ != 0;
+    runner_.poll();
+    if (was_busy && !runner_.busy()) {
+      running_attempt_ = 0;
+      for (const protocol::Parts& p : runner_.take_outbox()) send(p);
+      send_heartbeat();
+    }
+  }
+
+  void handle(const protocol::Parts& parts) {
+    last_heard_ = Clock::now();
+    protocol::Command command;
+    try {
+      command = protocol::decode_command(parts);
+    } catch (const protocol::ProtocolError& e) {
+      log_line(options_, "refused a message", e.what());
+      return;
+    }
+    std::visit([this](auto& m) { on(m); }, command);
+  }
+
+  void on(protocol::Welcome& m) {
+    welcomed_ = true;
+    worker_id_ = m.worker;
+    if (m.heartbeat_ms > 0) heartbeat_ = std::chrono::milliseconds(m.heartbeat_ms);
+    log_line(options_, "connected", options_.endpoint + " as worker " + std::to_string(m.worker));
+  }
+  void on(protocol::AssignTask& m) {
+    if (runner_.busy()) {
+      protocol::TaskFailed f;
+      f.attempt = m.attempt;
+      f.task = m.task;
+      f.message = "worker " + options_.name + " is still running attempt " + std::to_string(runner_.attempt());
+      send(protocol::encode(f));
+      return;
+    }
+    log_line(options_, "task", std::to_string(m.task) + " attempt " + std::to_string(m.attempt) + " (" +
+                                   protocol::to_string(m.kind) + " level " + std::to_string(m.level) + ", frames (" +
+                                   std::to_string(m.first) + ", " + std::to_string(m.last) + "])");
+    running_attempt_ = m.attempt;
+    runner_.start(std::move(m));
+  }
+  void on(protocol::BelowFrame& m) { runner_.feed(m); }
+  void on(protocol::CancelTask& m) {
+    if (m.attempt != runner_.attempt()) return;
+    log_line(options_, "cancel", "attempt " + std::to_string(m.attempt) + ": " + m.reason);
+    runner_.cancel();
+  }
+  void on(protocol::SchedulerHeartbeat&) {}
+  void on(protocol::Refused& m) { log_line(options_, "scheduler refused a report", m.reason); }
+
+  zmq::socket_t socket_;
+  const WorkerOptions& options_;
+  TaskRunner& runner_;
+  int wake_fd_;
+  std::chrono::milliseconds heartbeat_;
+  Clock::time_point last_heard_, last_sent_;
+  bool welcomed_ = false;
+  int64_t worker_id_ = 0, running_attempt_ = 0;
+};
+
+// Sleeps up to `d`, waking early when asked to stop.
+void sleep_unless_stopped(std::chrono::milliseconds d, const std::atomic<bool>& stop) {
+  const auto end = Clock::now() + d;
+  while (!stop && Clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+}
+
+}  // namespace
+
+int run_worker(const WorkerOptions& options, const std::atomic<bool>& stop) {
+  const int wake_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (wake_fd < 0) {
+    std::perror("pd-worker: eventfd");
+    return 1;
+  }
+  zmq::context_t ctx(1);
+  HierarchyCache cache;
+  auto backoff = kMinBackoff;
+  int code = 0;
+  {
+    TaskRunner runner(wake_fd, options.scratch_dir, cache);
+    while (!stop) {
+      bool reconnect;
+      bool welcomed;
+      {
+        Session session(ctx, options, runner, wake_fd);
+        reconnect = session.run(stop);
+        welcomed = session.welcomed();
+      }
+      if (!reconnect) break;
+      // The lost attempt was cancelled; its thread ends at its next frame or input wait.
+      while (runner.busy() && !stop) {
+        runner.poll();
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+      runner.take_outbox();  // reports of an attempt the scheduler has given away
+      if (welcomed) backoff = kMinBackoff;  // a session that got through starts the backoff anew
+      log_line(options, "reconnecting", "in " + std::to_string(backoff.count()) + " ms");
+      sleep_unless_stopped(backoff, stop);
+      backoff = std::min(backoff * 2, kMaxBackoff);
+    }
+  }
+  close(wake_fd);
+  return code;
+}
+
+}  // namespace pd::worker

@@ -1,0 +1,26 @@
+#pragma once
+// pd-worker's connection to the scheduler (zguide's Paranoid Pirate worker): a DEALER that says
+// Hello, gets Welcome, runs one task at a time on a TaskRunner, and streams the runner's reports.
+// Heartbeats both ways every heartbeat period; when nothing has come from the scheduler for
+// kLiveness periods the worker drops the socket (and any attempt it was running: the scheduler has
+// given it away by then) and reconnects after a backoff that doubles from 1 s to 32 s.
+#include <atomic>
+#include <chrono>
+#include <string>
+
+namespace pd::worker {
+
+struct WorkerOptions {
+  std::string endpoint;     // the scheduler's worker endpoint, e.g. tcp://127.0.0.1:7400
+  std::string name;         // shown by pd workers; default host:pid
+  std::string scratch_dir;  // scene files and hierarchy blobs; default /tmp/pd-worker-<pid>
+  int heartbeat_ms = 1000;  // until the scheduler's Welcome says otherwise
+};
+
+constexpr int kLiveness = 3;  // missed heartbeats before the peer counts as gone
+constexpr std::chrono::milliseconds kMinBackoff{1000}, kMaxBackoff{32000};
+
+// Runs until `stop` becomes true (a signal handler sets it). Returns the process exit code.
+int run_worker(const WorkerOptions& options, const std::atomic<bool>& stop);
+
+}  // namespace pd::worker
