@@ -34,7 +34,8 @@ void Scheduler::on_client_message(const std::string& identity, const protocol::P
     reply = error(e.what());
   }
   try {
-    farm::send_parts_to(clients_, identity, protocol::encode(reply));
+    if (!farm::send_parts_to(clients_, identity, protocol::encode(reply)))
+      event("reply_failed", 0, 0, 0, "client queue full, reply dropped", false);
   } catch (const zmq::error_t& e) {
     event("reply_failed", 0, 0, 0, e.what(), false);  // the client went away
   }

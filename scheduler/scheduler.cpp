@@ -103,7 +103,13 @@ void Scheduler::run(const std::atomic<bool>& stop) {
 void Scheduler::send_worker(const std::string& identity, const protocol::Parts& parts) {
   auto it = sessions_.find(identity);
   try {
-    farm::send_parts_to(workers_, identity, parts);
+    if (!farm::send_parts_to(workers_, identity, parts)) {
+      // Its queue is full: it has stopped reading. It is dropped at the next liveness check (its
+      // heartbeats stop being read as well), not now: the caller may still be using its session.
+      event("send_failed", 0, 0, it == sessions_.end() ? 0 : it->second.worker, "queue full, message dropped");
+      if (it != sessions_.end()) it->second.last_heard = Clock::time_point{};
+      return;
+    }
     if (it != sessions_.end()) it->second.last_sent = Clock::now();
   } catch (const zmq::error_t& e) {
     // EHOSTUNREACH: the peer is gone; its session is dropped at the next liveness check.
@@ -162,16 +168,15 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
         "attempt " + std::to_string(claim.attempt) + ": " + protocol::to_string(t.kind) + " level " +
             std::to_string(t.level) + " frames (" + std::to_string(t.first) + ", " + std::to_string(t.last) + "] to " +
             s.name);
-  if (t.kind == protocol::TaskKind::level && t.level >= 1) feed_stored_frames(s, t);
+  if (t.kind == protocol::TaskKind::level && t.level >= 1) feed_stored_frames(identity, s, t);
   return true;
 }
 
 // Sends the running attempt every stored frame of the level below it will ask for.
-void Scheduler::feed_stored_frames(Session& s, const TaskRow& task) {
+void Scheduler::feed_stored_frames(const std::string& identity, Session& s, const TaskRow& task) {
   const std::optional<farm::FrameRange> range = farm::fed_frames(as_new_task(task));
   if (!range) return;
   JobFile* f = files_.find(task.job);
-  auto it = std::find_if(sessions_.begin(), sessions_.end(), [&](const auto& kv) { return &kv.second == &s; });
   for (int t : store_->stored_frames(task.job, range->level, range->first, range->last)) {
     protocol::BelowFrame b;
     b.attempt = s.attempt;
@@ -179,7 +184,7 @@ void Scheduler::feed_stored_frames(Session& s, const TaskRow& task) {
     b.level = range->level;
     b.frame = t;
     b.positions = as_vector(f->writer->read_frame(range->level, t));
-    send_worker(it->first, protocol::encode(b));
+    send_worker(identity, protocol::encode(b));
     s.fed.insert(t);
   }
 }

@@ -84,7 +84,7 @@ class Scheduler {
   // scheduler.cpp
   void dispatch();
   bool assign(const std::string& identity, Session& s, const Claim& claim);
-  void feed_stored_frames(Session& s, const TaskRow& task);
+  void feed_stored_frames(const std::string& identity, Session& s, const TaskRow& task);
   void feed_new_frame(int64_t job, int level, int frame);
   void send_worker(const std::string& identity, const protocol::Parts& parts);
   void preempt_starved();

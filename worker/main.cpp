@@ -6,6 +6,7 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -42,7 +43,9 @@ int main(int argc, char** argv) {
     gethostname(host, sizeof host - 1);
     options.name = std::string(host) + ":" + pid;
   }
-  if (options.scratch_dir.empty()) options.scratch_dir = "/tmp/pd-worker-" + pid;
+  // A default scratch folder is this process's own and goes with it; a given one is left as it is.
+  const bool own_scratch = options.scratch_dir.empty();
+  if (own_scratch) options.scratch_dir = "/tmp/pd-worker-" + pid;
   if (options.endpoint.rfind("tcp://", 0) != 0 && options.endpoint.rfind("ipc://", 0) != 0) {
     std::fprintf(stderr, "pd-worker: error: --connect: expected tcp://HOST:PORT or ipc://PATH, got '%s'\n",
                  options.endpoint.c_str());
@@ -52,10 +55,13 @@ int main(int argc, char** argv) {
   sa.sa_handler = on_signal;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  int code = 1;
   try {
-    return pd::worker::run_worker(options, g_stop);
+    code = pd::worker::run_worker(options, g_stop);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "pd-worker: error: %s\n", e.what());
-    return 1;
   }
+  std::error_code ignored;
+  if (own_scratch) std::filesystem::remove_all(options.scratch_dir, ignored);
+  return code;
 }

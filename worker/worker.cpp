@@ -138,8 +138,11 @@ class Session {
       return;
     }
     log_line(options_, "task", std::to_string(m.task) + " attempt " + std::to_string(m.attempt) + " (" +
-                                   protocol::to_string(m.kind) + " level " + std::to_string(m.level) + ", frames (" +
-                                   std::to_string(m.first) + ", " + std::to_string(m.last) + "])");
+                                   (m.kind == protocol::TaskKind::hierarchy
+                                        ? std::string("hierarchy")
+                                        : "level " + std::to_string(m.level) + ", frames (" + std::to_string(m.first) +
+                                              ", " + std::to_string(m.last) + "]") +
+                                   ")");
     running_attempt_ = m.attempt;
     runner_.start(std::move(m));
   }

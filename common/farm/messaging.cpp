@@ -22,12 +22,14 @@ void send_parts(zmq::socket_t& socket, const protocol::Parts& parts) {
   zmq::send_multipart(socket, buffers);
 }
 
-void send_parts_to(zmq::socket_t& socket, const std::string& identity, const protocol::Parts& parts) {
+bool send_parts_to(zmq::socket_t& socket, const std::string& identity, const protocol::Parts& parts) {
   std::vector<zmq::const_buffer> buffers;
   buffers.reserve(parts.size() + 1);
   buffers.emplace_back(identity.data(), identity.size());
   for (const std::string& p : parts) buffers.emplace_back(p.data(), p.size());
-  zmq::send_multipart(socket, buffers);
+  // The high-water mark is checked on a message's first part, so a multipart message is queued whole
+  // or not at all.
+  return zmq::send_multipart(socket, buffers, zmq::send_flags::dontwait).has_value();
 }
 
 std::optional<protocol::Parts> recv_parts(zmq::socket_t& socket) {

@@ -21,8 +21,11 @@ std::string last_endpoint(const zmq::socket_t& socket);
 
 // Sends parts as one multipart message (blocking until queued).
 void send_parts(zmq::socket_t& socket, const protocol::Parts& parts);
-// ROUTER side: prefixes the peer's identity frame.
-void send_parts_to(zmq::socket_t& socket, const std::string& identity, const protocol::Parts& parts);
+// ROUTER side: prefixes the peer's identity frame. Never blocks: returns false when the peer's
+// queue is full (it has stopped reading: SNDHWM messages are waiting for it), so that one stuck
+// peer cannot stall the scheduler's loop for everyone else. Throws zmq::error_t for an unknown
+// peer on a ROUTER_MANDATORY socket (EHOSTUNREACH).
+bool send_parts_to(zmq::socket_t& socket, const std::string& identity, const protocol::Parts& parts);
 
 // Receives one whole multipart message (blocks). Returns nullopt only when interrupted (EINTR).
 std::optional<protocol::Parts> recv_parts(zmq::socket_t& socket);

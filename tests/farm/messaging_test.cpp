@@ -39,7 +39,7 @@ TEST(Messaging, RouterAndDealerExchangePartsWithBinaryContentIntact) {
   EXPECT_FALSE(got->identity.empty());
   EXPECT_EQ(got->parts, sent);
 
-  send_parts_to(router, got->identity, {"reply", std::string(3, '\0')});
+  EXPECT_TRUE(send_parts_to(router, got->identity, {"reply", std::string(3, '\0')}));
   std::optional<protocol::Parts> reply = recv_parts_within(dealer, 5000ms);
   ASSERT_TRUE(reply);
   EXPECT_EQ(*reply, (protocol::Parts{"reply", std::string(3, '\0')}));

@@ -1,0 +1,553 @@
+// The farm end to end: real pd-scheduler and pd-worker processes on loopback port-0 endpoints, driven
+// with the pd client as a user drives them (tests/support/process.h starts, bounds and stops them).
+// Checked: a K = 1 job gives the frames of `pd simulate --mode progressive` bit for bit; K = 2 keeps
+// every frame intersection-free and equal to K = 1 up to the first seam; the worker count changes no
+// frame; queueing and cancelling; bad input; `pd run`.
+//
+// Frames: cube-trampoline's full 200 for K = 1 (the job on two workers with its reference `pd
+// simulate` beside it: about 30 s on the 2-core machine); 110 with subsets (why: see
+// kSubsetFrames); fewer where only the farm's mechanics are checked.
+#include <gtest/gtest.h>
+
+#include <dirent.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "store/frame_store.h"
+#include "support/intersection_checker.h"
+#include "support/process.h"
+#include "support/test_paths.h"
+
+namespace pd {
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+using Args = std::vector<std::string>;
+
+constexpr auto kCommand = 30s;    // any client command but a --wait
+constexpr auto kLongJob = 300s;   // a 200-frame job (about 25 s measured)
+constexpr auto kShortJob = 120s;  // a job of 20-110 frames (at most 16 s measured)
+constexpr int kFullFrames = 200;  // scenes/cube-trampoline.json's own count
+
+std::string scene_path(const std::string& name) { return test::source_dir() + "/scenes/" + name; }
+
+json parse_json(const test::RunResult& r) {
+  try {
+    return json::parse(r.out);
+  } catch (const json::exception& e) {
+    throw std::runtime_error(std::string("not JSON (") + e.what() + "): " + r.describe());
+  }
+}
+
+// One pd-scheduler on port-0 loopback endpoints in DIR/farm and `workers` pd-workers w1..wN, started
+// in the constructor, which returns once the scheduler lists every worker idle; stopped (workers
+// first) by stop() or the destructor.
+class Farm {
+ public:
+  Farm(const std::string& dir, int workers) : dir_(dir), log_(dir + "/scheduler.log") {
+    const std::string out = dir + "/scheduler.out";
+    scheduler_.start({PD_SCHEDULER_BINARY, "--dir", dir + "/farm", "--workers-endpoint", "tcp://127.0.0.1:0",
+                      "--clients-endpoint", "tcp://127.0.0.1:0", "--heartbeat-ms", "1000"},
+                     {}, out, log_);
+    const auto line = test::read_first_line(out, 20s, &scheduler_);
+    if (!line) throw std::runtime_error("pd-scheduler printed no first line; its log:\n" + test::file_tail(log_));
+    const json listening = json::parse(*line);
+    if (listening.at("event") != "listening") throw std::runtime_error("first line is not 'listening': " + *line);
+    if (listening.at("dir") != dir + "/farm") throw std::runtime_error("first line names another dir: " + *line);
+    workers_endpoint_ = listening.at("workers").get<std::string>();
+    clients_ = listening.at("clients").get<std::string>();
+    for (int k = 1; k <= workers; ++k) {
+      const std::string name = "w" + std::to_string(k);
+      worker_logs_.push_back(dir + "/worker-" + name + ".log");
+      workers_.emplace_back();
+      // --scratch inside the test's folder: the default /tmp/pd-worker-<pid> outlives the worker.
+      workers_.back().start(
+          {PD_WORKER_BINARY, "--connect", workers_endpoint_, "--name", name, "--scratch", dir + "/scratch-" + name}, {},
+          worker_logs_.back(), worker_logs_.back());
+    }
+    wait_for_idle_workers(workers, 20s);
+  }
+  ~Farm() { stop(); }
+  Farm(const Farm&) = delete;
+  Farm& operator=(const Farm&) = delete;
+
+  const std::string& dir() const { return dir_; }
+  const std::string& clients() const { return clients_; }
+
+  // pd ARGS --farm <clients>, bounded by `timeout`.
+  test::RunResult pd(Args args, std::chrono::milliseconds timeout = kCommand) const {
+    args.insert(args.begin(), PD_BINARY);
+    args.insert(args.end(), {"--farm", clients_});
+    return test::run(args, timeout);
+  }
+
+  // The scheduler's exit code (it must exit 0 on SIGTERM); workers are stopped first.
+  int stop() {
+    for (test::Process& w : workers_) w.terminate(5s);
+    return scheduler_.terminate(10s);
+  }
+
+  // The scheduler's log without its frame_stored lines (one per frame), and the workers' logs.
+  std::string log_tails() const {
+    std::string events, line;
+    std::ifstream in(log_);
+    int frames = 0;
+    while (std::getline(in, line))
+      if (line.find("\"frame_stored\"") == std::string::npos) events += line + "\n";
+      else ++frames;
+    const std::string tail = events.size() > 6000 ? "...\n" + events.substr(events.size() - 6000) : events;
+    std::string s = "---- " + log_ + " (" + std::to_string(frames) + " frame_stored lines left out)\n" + tail;
+    for (const std::string& w : worker_logs_) s += "---- " + w + " (tail)\n" + test::file_tail(w, 15);
+    return s;
+  }
+
+ private:
+  void wait_for_idle_workers(int n, std::chrono::milliseconds timeout) const {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    std::string last;
+    for (;;) {
+      const test::RunResult r = pd({"workers", "--json"});
+      last = r.describe();
+      if (r.exit_code == 0) {
+        const json j = parse_json(r);
+        const auto idle = std::count_if(j.at("workers").begin(), j.at("workers").end(),
+                                        [](const json& w) { return w.at("state") == "idle"; });
+        if (idle == n) return;
+      }
+      if (std::chrono::steady_clock::now() >= deadline)
+        throw std::runtime_error("the workers did not all register as idle in time; last: " + last);
+      std::this_thread::sleep_for(100ms);
+    }
+  }
+
+  std::string dir_, log_, workers_endpoint_, clients_;
+  test::Process scheduler_;
+  std::vector<test::Process> workers_;
+  std::vector<std::string> worker_logs_;
+};
+
+class FarmTest : public ::testing::Test {
+ protected:
+  Farm& start_farm(int workers, const std::string& tag) {
+    dirs_.push_back(test::scratch_dir(tag));
+    farms_.push_back(std::make_unique<Farm>(dirs_.back(), workers));
+    return *farms_.back();
+  }
+
+  void TearDown() override {
+    for (auto& farm : farms_) {
+      EXPECT_EQ(farm->stop(), 0) << "pd-scheduler did not exit 0 on SIGTERM";
+      if (HasFailure()) std::printf("%s", farm->log_tails().c_str());
+    }
+    farms_.clear();
+    // Kept for a look when the test failed; the frame files are megabytes otherwise left in /tmp.
+    for (const std::string& d : dirs_) {
+      if (HasFailure()) std::printf("kept %s\n", d.c_str());
+      else std::filesystem::remove_all(d);
+    }
+  }
+
+  std::vector<std::string> dirs_;
+  std::vector<std::unique_ptr<Farm>> farms_;
+};
+
+int64_t submit(const Farm& farm, Args args) {
+  args.insert(args.begin(), "submit");
+  args.push_back("--json");
+  const test::RunResult r = farm.pd(args);
+  if (r.exit_code != 0) throw std::runtime_error("pd submit failed: " + r.describe());
+  return parse_json(r).at("job").get<int64_t>();
+}
+
+// `pd status JOB --json`: the job's object.
+json job_status(const Farm& farm, int64_t job) {
+  const test::RunResult r = farm.pd({"status", std::to_string(job), "--json"});
+  if (r.exit_code != 0) throw std::runtime_error("pd status failed: " + r.describe());
+  const json jobs = parse_json(r).at("jobs");
+  if (jobs.size() != 1 || jobs[0].at("id") != job) throw std::runtime_error("status lists other jobs: " + r.out);
+  return jobs[0];
+}
+
+void wait_until_done(const Farm& farm, int64_t job, std::chrono::milliseconds timeout) {
+  const test::RunResult r = farm.pd({"status", std::to_string(job), "--wait", "--interval", "0.2"}, timeout);
+  if (r.exit_code != 0) throw std::runtime_error("job " + std::to_string(job) + " did not end done: " + r.describe());
+}
+
+void fetch(const Farm& farm, int64_t job, const std::string& out) {
+  const test::RunResult r = farm.pd({"fetch", std::to_string(job), "--out", out}, 60s);
+  if (r.exit_code != 0) throw std::runtime_error("pd fetch failed: " + r.describe());
+}
+
+// `pd simulate SCENE --mode progressive --frames N --out OUT`, started now to run beside the farm.
+test::Process start_reference(const std::string& scene, const std::string& out, int frames) {
+  test::Process p;
+  p.start({PD_BINARY, "simulate", scene, "--mode", "progressive", "--frames", std::to_string(frames), "--quiet",
+           "--out", out},
+          {}, out + ".log", out + ".log");
+  return p;
+}
+
+void finish_reference(test::Process& p, const std::string& out, std::chrono::milliseconds timeout) {
+  const auto code = p.wait_for_exit(timeout);
+  if (code != 0)
+    throw std::runtime_error("pd simulate " + (code ? "exited " + std::to_string(*code) : "timed out") + ":\n" +
+                             test::file_tail(out + ".log"));
+}
+
+bool same_bits(const Positions& a, const Positions& b) {
+  return a.rows() == b.rows() && std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0;
+}
+
+// Frames first..last of `level` equal bit for bit in both files (and the level's mesh too).
+void expect_identical_frames(const FrameReader& a, const FrameReader& b, int level, int first, int last) {
+  ASSERT_EQ(a.num_vertices(level), b.num_vertices(level)) << "level " << level;
+  ASSERT_EQ(a.faces(level), b.faces(level)) << "level " << level;
+  int differing = 0;
+  for (int t = first; t <= last; ++t) {
+    if (same_bits(a.frame(level, t), b.frame(level, t))) continue;
+    if (++differing <= 3) ADD_FAILURE() << a.path() << " and " << b.path() << ": level " << level << " frame " << t
+                                        << " differs";
+  }
+  EXPECT_EQ(differing, 0) << "level " << level << ": frames " << first << ".." << last << " differing";
+}
+
+// Largest vertex distance (m) between the files over frames first..last of `level`.
+double max_vertex_deviation(const FrameReader& a, const FrameReader& b, int level, int first, int last) {
+  double worst = 0.0;
+  for (int t = first; t <= last; ++t) worst = std::max(worst, (a.frame(level, t) - b.frame(level, t)).rowwise().norm().maxCoeff());
+  return worst;
+}
+
+// Every frame of every level stored, and none intersecting (independent CGAL check).
+void expect_complete_and_intersection_free(const FrameReader& r) {
+  for (int l = 0; l < r.num_levels(); ++l) {
+    const std::vector<uint8_t> done = r.done(l);
+    EXPECT_EQ(std::count(done.begin(), done.end(), uint8_t{1}), r.num_frames()) << r.path() << " level " << l;
+    const Faces faces = r.faces(l);
+    for (int t = 0; t < r.num_frames(); ++t) {
+      if (!done[t]) continue;
+      const test::IntersectionReport rep = test::find_intersections(r.frame(l, t), faces);
+      EXPECT_EQ(rep.intersecting_pairs, 0) << r.path() << " level " << l << " frame " << t;
+      EXPECT_TRUE(rep.degenerate_faces.empty()) << r.path() << " level " << l << " frame " << t;
+    }
+  }
+}
+
+void expect_every_level_complete(const json& job, int frames) {
+  EXPECT_EQ(job.at("state"), "done");
+  for (const json& l : job.at("levels")) {
+    EXPECT_EQ(l.at("frames_total"), frames + 1) << l.dump();
+    EXPECT_EQ(l.at("frames_done"), l.at("frames_total")) << l.dump();
+  }
+}
+
+std::set<std::string> task_workers(const json& job) {
+  std::set<std::string> names;
+  for (const json& t : job.at("tasks")) names.insert(t.at("worker").get<std::string>());
+  return names;
+}
+
+TEST_F(FarmTest, TwoWorkersOneSubsetGiveTheFramesOfPdSimulateBitForBitAndIntersectionFree) {
+  Farm& farm = start_farm(2, "farm_k1");
+  const std::string scene = scene_path("cube-trampoline.json"), ref_path = farm.dir() + "/ref.h5";
+  const int64_t job = submit(farm, {scene, "--frames", std::to_string(kFullFrames), "--subsets", "1"});
+  test::Process ref = start_reference(scene, ref_path, kFullFrames);
+  wait_until_done(farm, job, kLongJob);
+  fetch(farm, job, farm.dir() + "/job.h5");
+  finish_reference(ref, ref_path, kLongJob);
+
+  const json status = job_status(farm, job);
+  expect_every_level_complete(status, kFullFrames);
+  EXPECT_EQ(status.at("levels").size(), 3u);
+  const std::set<std::string> workers = task_workers(status);
+  EXPECT_TRUE(workers.count("w1") && workers.count("w2")) << "tasks ran on: " << status.at("tasks").dump();
+
+  const FrameReader got(farm.dir() + "/job.h5"), want(ref_path);
+  ASSERT_EQ(got.num_levels(), 3);
+  ASSERT_EQ(got.num_levels(), want.num_levels());
+  ASSERT_EQ(got.num_frames(), kFullFrames + 1);
+  ASSERT_EQ(got.num_frames(), want.num_frames());
+  for (int l = 0; l < got.num_levels(); ++l) expect_identical_frames(got, want, l, 0, kFullFrames);
+  expect_complete_and_intersection_free(got);
+}
+
+// The first seam of each refinement level: the smallest task start > 0 (0 when the level has none).
+int first_seam(const json& job, int level) {
+  int seam = 0;
+  for (const json& t : job.at("tasks"))
+    if (t.at("kind") == "level" && t.at("level") == level && t.at("first") > 0)
+      seam = seam == 0 ? t.at("first").get<int>() : std::min(seam, t.at("first").get<int>());
+  return seam;
+}
+
+// Subsets on cube-trampoline: 110 frames (seam 55), not the scene's 200. With 200 the level-2
+// subset (100, 200] cannot start: safe upsampling of level 1's frame 100 finds "no valid perturbation
+// found for restored vertex 306" (a limit of the library, reproduced outside the farm with
+// solve_level_task; in contact it also fails for level 1 at frames 30, 40, 70, 80, 120, 180). Where it
+// succeeds in contact it takes 6-28 s per vertical start (frames 45-65 but 55); at frame 55 (the cube
+// in the air after its bounce) 0.3 s on level 1 and 1.7 s on level 2.
+constexpr int kSubsetFrames = 110;
+
+TEST_F(FarmTest, TwoSubsetsKeepEveryFrameIntersectionFreeAndEqualToOneSubsetBeforeTheSeam) {
+  constexpr int kFrames = kSubsetFrames;
+  Farm& farm = start_farm(2, "farm_k2");
+  const std::string scene = scene_path("cube-trampoline.json");
+  const std::string frames = std::to_string(kFrames);
+  // Both jobs on one farm: the same CPU time as one job beside a reference pd simulate.
+  const int64_t k1 = submit(farm, {scene, "--frames", frames, "--subsets", "1"});
+  const int64_t k2 = submit(farm, {scene, "--frames", frames, "--subsets", "2"});
+  wait_until_done(farm, k1, kLongJob);
+  wait_until_done(farm, k2, kLongJob);
+  fetch(farm, k1, farm.dir() + "/k1.h5");
+  fetch(farm, k2, farm.dir() + "/k2.h5");
+
+  const json status = job_status(farm, k2);
+  expect_every_level_complete(status, kFrames);
+  EXPECT_EQ(status.at("subsets"), 2);
+  const FrameReader one(farm.dir() + "/k1.h5"), two(farm.dir() + "/k2.h5");
+  ASSERT_EQ(two.num_levels(), 3);
+  ASSERT_EQ(two.num_levels(), one.num_levels());
+  expect_complete_and_intersection_free(two);
+  // The preview is a chain whatever K is: all of it equal.
+  expect_identical_frames(two, one, 0, 0, kFrames);
+  for (int l = 1; l < two.num_levels(); ++l) {
+    const int seam = first_seam(status, l);
+    EXPECT_EQ(seam, static_cast<int>(std::lround(kFrames / 2.0))) << "level " << l;
+    if (seam <= 0) continue;
+    expect_identical_frames(two, one, l, 0, seam);
+    const double dev = max_vertex_deviation(two, one, l, seam + 1, kFrames);
+    std::printf("K = 2 against K = 1, level %d: max vertex deviation after the seam (frames %d..%d) %.6g m\n", l,
+                seam + 1, kFrames, dev);
+    RecordProperty("max_deviation_after_seam_level_" + std::to_string(l) + "_m", std::to_string(dev));
+  }
+}
+
+TEST_F(FarmTest, OneWorkerAndTwoWorkersGiveIdenticalFramesWithTwoSubsets) {
+  constexpr int kFrames = kSubsetFrames;
+  const std::string scene = scene_path("cube-trampoline.json"), frames = std::to_string(kFrames);
+  Farm& single = start_farm(1, "farm_one");
+  Farm& pair = start_farm(2, "farm_two");
+  const int64_t a = submit(single, {scene, "--frames", frames, "--subsets", "2"});
+  const int64_t b = submit(pair, {scene, "--frames", frames, "--subsets", "2"});
+  wait_until_done(single, a, kShortJob);
+  wait_until_done(pair, b, kShortJob);
+  fetch(single, a, single.dir() + "/job.h5");
+  fetch(pair, b, pair.dir() + "/job.h5");
+  const json status = job_status(pair, b);
+  expect_every_level_complete(status, kFrames);
+  const std::set<std::string> workers = task_workers(status);
+  EXPECT_TRUE(workers.count("w1") && workers.count("w2")) << "tasks ran on: " << status.at("tasks").dump();
+
+  const FrameReader x(single.dir() + "/job.h5"), y(pair.dir() + "/job.h5");
+  ASSERT_EQ(x.num_levels(), y.num_levels());
+  ASSERT_EQ(x.num_frames(), kFrames + 1);
+  ASSERT_EQ(x.num_frames(), y.num_frames());
+  for (int l = 0; l < x.num_levels(); ++l) expect_identical_frames(x, y, l, 0, kFrames);
+}
+
+// Polls `condition` every 100 ms for at most `timeout`; true once it held.
+template <typename F>
+bool eventually(std::chrono::milliseconds timeout, F condition) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    if (condition()) return true;
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(100ms);
+  }
+}
+
+TEST_F(FarmTest, SecondJobQueuesThenRunsAndCancellingTheFirstFreesItsWorkersWithinHeartbeats) {
+  Farm& farm = start_farm(2, "farm_cancel");
+  const std::string scene = scene_path("cube-trampoline.json");
+  const int64_t first = submit(farm, {scene, "--frames", std::to_string(kFullFrames)});
+  // Both workers on the first job (preview chain and the pipelined level 1), so the second must queue.
+  const bool both_busy = eventually(30s, [&] {
+    const json w = parse_json(farm.pd({"workers", "--json"})).at("workers");
+    return std::count_if(w.begin(), w.end(), [](const json& x) { return x.at("state") == "busy"; }) == 2;
+  });
+  ASSERT_TRUE(both_busy) << farm.pd({"workers", "--json"}).describe();
+  const int64_t second = submit(farm, {scene, "--frames", "20"});
+  EXPECT_EQ(job_status(farm, second).at("state"), "queued");
+  ASSERT_EQ(job_status(farm, first).at("state"), "running");
+
+  const test::RunResult cancel = farm.pd({"cancel", std::to_string(first)});
+  ASSERT_EQ(cancel.exit_code, 0) << cancel.describe();
+  const auto t0 = std::chrono::steady_clock::now();
+  json cancelled;
+  const bool stopped = eventually(10s, [&] {
+    cancelled = job_status(farm, first);
+    std::set<int64_t> ids;
+    for (const json& t : cancelled.at("tasks")) {
+      if (t.at("state") == "running") return false;
+      ids.insert(t.at("id").get<int64_t>());
+    }
+    const json w = parse_json(farm.pd({"workers", "--json"})).at("workers");
+    const bool busy_on_it = std::any_of(w.begin(), w.end(), [&](const json& x) {
+      return x.at("state") == "busy" && ids.count(x.at("task").get<int64_t>());
+    });
+    return cancelled.at("state") == "cancelled" && !busy_on_it;
+  });
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(stopped) << "after 10 s: " << cancelled.dump() << "\n" << farm.pd({"workers", "--json"}).describe();
+  std::printf("cancelled job stopped everywhere within %.2f s\n", seconds);
+  // No frame is added to a cancelled job: its counts stay put over two heartbeats.
+  std::this_thread::sleep_for(2s);
+  EXPECT_EQ(job_status(farm, first).at("levels"), cancelled.at("levels"));
+
+  wait_until_done(farm, second, kShortJob);
+  expect_every_level_complete(job_status(farm, second), 20);
+}
+
+std::string write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+  return path;
+}
+
+// A free loopback port nobody listens on: bound to port 0, read back, closed.
+int unused_port() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  addr.sin_port = 0;
+  socklen_t len = sizeof(addr);
+  if (fd < 0 || bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0 ||
+      getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) != 0)
+    throw std::runtime_error(std::string("cannot find a free port: ") + std::strerror(errno));
+  close(fd);
+  return ntohs(addr.sin_port);
+}
+
+void expect_usage_error(const test::RunResult& r, const std::string& mention) {
+  EXPECT_EQ(r.exit_code, 2) << r.describe();
+  EXPECT_NE(r.err.find("pd: error:"), std::string::npos) << r.describe();
+  EXPECT_NE(r.err.find(mention), std::string::npos) << "expected '" << mention << "' in: " << r.describe();
+}
+
+TEST_F(FarmTest, BadScenesJobsOptionsAndUnreachableFarmsExitTwoWithClearMessages) {
+  Farm& farm = start_farm(0, "farm_bad");
+  const std::string dir = farm.dir();
+  const std::string broken = write_text(dir + "/broken.json", "{\n  \"time_step\": 0.01,\n  \"frames\": ,\n}\n");
+  // A misspelt key in an otherwise valid scene ("thicknes" beside "thickness").
+  json scene = json::parse(test::read_file_text(scene_path("cube-trampoline.json")));
+  scene["objects"][0]["material"]["thicknes"] = 0.002;
+  const std::string bad_key = write_text(dir + "/bad-key.json", scene.dump(2));
+  for (const auto& [file, mention] : {std::pair{broken, "broken.json"}, std::pair{bad_key, "thicknes"}}) {
+    const test::RunResult sim = test::run({PD_BINARY, "simulate", file, "--out", dir + "/x.h5"}, kCommand);
+    const test::RunResult sub = farm.pd({"submit", file});
+    EXPECT_EQ(sim.exit_code, 2) << sim.describe();
+    expect_usage_error(sub, mention);
+    EXPECT_EQ(sub.err, sim.err) << "pd submit and pd simulate differ on " << file;
+  }
+
+  expect_usage_error(farm.pd({"status", "999"}), "999");
+  expect_usage_error(farm.pd({"cancel", "999"}), "999");
+  const std::string valid = scene_path("cube-trampoline.json");
+  expect_usage_error(farm.pd({"submit", "--subsets", "0", valid}), "--subsets");
+  expect_usage_error(farm.pd({"submit", valid, "--frames", "-3"}), "--frames");
+  expect_usage_error(farm.pd({"status", "--wait"}), "--wait");
+
+  // The farm endpoint from PD_FARM when --farm is not given.
+  const test::RunResult env_ok = test::run({PD_BINARY, "workers", "--json"}, kCommand, {{"PD_FARM", farm.clients()}});
+  EXPECT_EQ(env_ok.exit_code, 0) << env_ok.describe();
+  const std::string nowhere = "tcp://127.0.0.1:" + std::to_string(unused_port());
+  const test::RunResult by_option = test::run({PD_BINARY, "status", "--farm", nowhere}, 30s);
+  expect_usage_error(by_option, nowhere);
+  EXPECT_LT(by_option.seconds, 10.0) << by_option.describe();
+  const test::RunResult by_env = test::run({PD_BINARY, "submit", valid}, 30s, {{"PD_FARM", nowhere}});
+  expect_usage_error(by_env, nowhere);
+  EXPECT_LT(by_env.seconds, 10.0) << by_env.describe();
+
+  // Nothing that was refused became a job.
+  const test::RunResult all = farm.pd({"status", "--json"});
+  ASSERT_EQ(all.exit_code, 0) << all.describe();
+  EXPECT_TRUE(parse_json(all).at("jobs").empty()) << all.out;
+}
+
+// While it lives, this process adopts the orphans of its descendants (PR_SET_CHILD_SUBREAPER), so a
+// farm process that `pd run` left behind becomes a child of the test, where it can be seen. On
+// destruction it kills and reaps any such process still there, so none outlives the test.
+class AdoptOrphans {
+ public:
+  AdoptOrphans() { prctl(PR_SET_CHILD_SUBREAPER, 1); }
+  ~AdoptOrphans() {
+    prctl(PR_SET_CHILD_SUBREAPER, 0);
+    for (const auto& [pid, name] : children({})) {
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+    }
+  }
+  AdoptOrphans(const AdoptOrphans&) = delete;
+  AdoptOrphans& operator=(const AdoptOrphans&) = delete;
+
+  // This process's children (pid, command name from /proc/<pid>/stat) but those in `known`,
+  // zombies included: a zombie here is a child its parent did not reap.
+  static std::vector<std::pair<pid_t, std::string>> children(const std::set<pid_t>& known) {
+    std::vector<std::pair<pid_t, std::string>> out;
+    DIR* proc = opendir("/proc");
+    if (!proc) return out;
+    while (const dirent* e = readdir(proc)) {
+      const pid_t pid = static_cast<pid_t>(std::atoi(e->d_name));
+      if (pid <= 0 || known.count(pid)) continue;
+      const std::string stat = test::read_file_text("/proc/" + std::string(e->d_name) + "/stat");
+      // "pid (comm) state ppid ...": comm may hold spaces and parentheses, so split at the last ')'.
+      const size_t open = stat.find('('), close = stat.rfind(')');
+      if (open == std::string::npos || close == std::string::npos || close + 2 > stat.size()) continue;
+      char state = 0;
+      long ppid = 0;
+      if (std::sscanf(stat.c_str() + close + 2, "%c %ld", &state, &ppid) != 2 || ppid != getpid()) continue;
+      out.emplace_back(pid, stat.substr(open + 1, close - open - 1) + " (state " + state + ")");
+    }
+    closedir(proc);
+    return out;
+  }
+};
+
+TEST(PdRun, TwoWorkersTwentyFramesMatchPdSimulateBitForBitAndLeaveNoFarmProcess) {
+  constexpr int kFrames = 20;
+  const std::string dir = test::scratch_dir("pd_run"), scene = scene_path("cube-trampoline.json");
+  const std::string out = dir + "/run.h5", ref_path = dir + "/ref.h5";
+  const AdoptOrphans adopt;  // declared before `ref`, so it outlives it
+  test::Process ref = start_reference(scene, ref_path, kFrames);
+  const test::RunResult r =
+      test::run({PD_BINARY, "run", scene, "--workers", "2", "--out", out, "--frames", std::to_string(kFrames)},
+                kShortJob, {{"PD_SCHEDULER_BIN", PD_SCHEDULER_BINARY}, {"PD_WORKER_BIN", PD_WORKER_BINARY}});
+  ASSERT_EQ(r.exit_code, 0) << r.describe();
+  // pd has been reaped; any other child of ours now is one of pd's that it did not stop and reap.
+  std::string left;
+  for (const auto& [pid, name] : AdoptOrphans::children({ref.pid()})) left += std::to_string(pid) + " " + name + "; ";
+  EXPECT_TRUE(left.empty()) << "left behind by pd run: " << left;
+  finish_reference(ref, ref_path, kShortJob);
+
+  const FrameReader got(out), want(ref_path);
+  ASSERT_EQ(got.num_levels(), want.num_levels());
+  ASSERT_EQ(got.num_frames(), kFrames + 1);
+  ASSERT_EQ(got.num_frames(), want.num_frames());
+  for (int l = 0; l < got.num_levels(); ++l) expect_identical_frames(got, want, l, 0, kFrames);
+  if (!HasFailure()) std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace pd
