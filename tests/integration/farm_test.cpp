@@ -103,6 +103,13 @@ class Farm {
     return test::run(args, timeout);
   }
 
+  // Kills worker w<k> (1-based) with SIGKILL, as a machine that dies does, and reaps it.
+  void kill_worker(int k) {
+    test::Process& w = workers_.at(static_cast<std::size_t>(k - 1));
+    ::kill(w.pid(), SIGKILL);
+    w.wait_for_exit(10s);
+  }
+
   // The scheduler's exit code (it must exit 0 on SIGTERM); workers are stopped first.
   int stop() {
     for (test::Process& w : workers_) w.terminate(5s);
@@ -376,6 +383,41 @@ bool eventually(std::chrono::milliseconds timeout, F condition) {
     if (std::chrono::steady_clock::now() >= deadline) return false;
     std::this_thread::sleep_for(100ms);
   }
+}
+
+// A worker killed mid-job (SIGKILL, no goodbye): after 3 missed heartbeats the scheduler takes its
+// attempt back; the remaining worker, held by a refinement task waiting for the lost task's frames,
+// is taken back too (preempted) so it can run that task first. The job still ends done with the
+// frames of the uninterrupted run, bit for bit.
+TEST_F(FarmTest, AWorkerKilledMidJobIsReplacedAndTheFramesStayThoseOfTheUninterruptedRun) {
+  constexpr int kFrames = 120;
+  Farm& farm = start_farm(2, "farm_lost");
+  const std::string scene = scene_path("cube-trampoline.json"), ref_path = farm.dir() + "/ref.h5";
+  const int64_t job = submit(farm, {scene, "--frames", std::to_string(kFrames), "--preview-chunk", "30"});
+  // Kill w1 once the preview is under way beyond its first chunk and level 1 runs beside it.
+  const bool under_way = eventually(60s, [&] {
+    const json s = job_status(farm, job);
+    return s.at("levels").at(0).at("frames_done").get<int>() > 40 && s.at("levels").at(1).at("frames_done").get<int>() > 1;
+  });
+  ASSERT_TRUE(under_way) << job_status(farm, job).dump();
+  json before = job_status(farm, job);
+  std::string victim;
+  for (const json& t : before.at("tasks"))
+    if (t.at("state") == "running" && t.at("level") == 0) victim = t.at("worker").get<std::string>();
+  ASSERT_FALSE(victim.empty()) << "no preview task running: " << before.dump();
+  farm.kill_worker(victim == "w1" ? 1 : 2);
+  test::Process ref = start_reference(scene, ref_path, kFrames);
+  wait_until_done(farm, job, kShortJob);
+  fetch(farm, job, farm.dir() + "/job.h5");
+  finish_reference(ref, ref_path, kShortJob);
+
+  const json status = job_status(farm, job);
+  expect_every_level_complete(status, kFrames);
+  int retried = 0;
+  for (const json& t : status.at("tasks")) retried += t.at("attempts").get<int>() > 1;
+  EXPECT_GE(retried, 1) << "no task was attempted twice: " << status.dump();
+  const FrameReader got(farm.dir() + "/job.h5"), want(ref_path);
+  for (int l = 0; l < got.num_levels(); ++l) expect_identical_frames(got, want, l, 0, kFrames);
 }
 
 TEST_F(FarmTest, SecondJobQueuesThenRunsAndCancellingTheFirstFreesItsWorkersWithinHeartbeats) {

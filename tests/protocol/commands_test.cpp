@@ -1,48 +1,23 @@
 #include <gtest/gtest.h>
 
-#include <cstring>
 #include <limits>
 
-#include <nlohmann/json.hpp>
-
 #include "protocol/protocol.h"
+#include "support/protocol_cases.h"
 
 namespace pd::protocol {
 namespace {
 
-using Json = nlohmann::ordered_json;
+using namespace test;  // the helpers shared by the protocol tests
 
-std::string error_of(const Parts& parts) {
-  try {
-    decode_command(parts);
-  } catch (const ProtocolError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("(not a ProtocolError: ") + e.what() + ")";
-  }
-  return "(no ProtocolError thrown)";
-}
+// The shared helpers bound to this file's family, the scheduler commands.
+std::string error_of(const Parts& parts) { return test::error_of(parts, decode_command); }
+int check_every_field_required(const Parts& parts) { return test::check_every_field_required(parts, decode_command); }
+int check_every_field_typed(const Parts& parts) { return test::check_every_field_typed(parts, decode_command); }
 
-::testing::AssertionResult has(const std::string& text, const std::string& part) {
-  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
-}
-
-bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
-  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
-}
-
-Json header(const Parts& p) { return Json::parse(p.at(0)); }
-
-Parts with_header(Parts p, const Json& h) {
-  p.at(0) = h.dump();
-  return p;
-}
-
-Parts with_field(const Parts& p, const std::string& name, const Json& value) {
-  Json h = header(p);
-  h[name] = value;
-  return with_header(p, h);
+template <typename T>
+T round_trip(const T& m) {
+  return test::round_trip<Command>(m, decode_command);
 }
 
 // Positions that must survive bit for bit: signed zero, denormals, non-finite values (the
@@ -124,44 +99,6 @@ void expect_same(const AssignTask& a, const AssignTask& b) {
   if (a.own_kappa) {
     EXPECT_TRUE(same_bits({*a.own_kappa}, {*b.own_kappa}));
   }
-}
-
-template <typename T>
-T round_trip(const T& m) {
-  const Parts parts = encode(m);
-  EXPECT_EQ(parts, encode(Command{m}));  // the variant overload encodes the same parts
-  const Command c = decode_command(parts);
-  EXPECT_TRUE(std::holds_alternative<T>(c));
-  return std::get<T>(c);
-}
-
-// Erases each field of part 0 but "v" and "type"; every decode must say that field is missing.
-int check_every_field_required(const Parts& parts) {
-  const Json h = header(parts);
-  const std::string type = h.at("type");
-  int checked = 0;
-  for (auto it = h.begin(); it != h.end(); ++it) {
-    if (it.key() == "v" || it.key() == "type") continue;
-    Json without = h;
-    without.erase(it.key());
-    EXPECT_EQ(error_of(with_header(parts, without)), type + ": field '" + it.key() + "': missing");
-    ++checked;
-  }
-  return checked;
-}
-
-// Replaces each field but "v" and "type" with a value of another JSON type.
-int check_every_field_typed(const Parts& parts) {
-  const Json h = header(parts);
-  const std::string type = h.at("type");
-  int checked = 0;
-  for (auto it = h.begin(); it != h.end(); ++it) {
-    if (it.key() == "v" || it.key() == "type") continue;
-    const Json wrong = it.value().is_string() ? Json(5) : Json("x");
-    EXPECT_TRUE(has(error_of(with_field(parts, it.key(), wrong)), type + ": field '" + it.key() + "': expected"));
-    ++checked;
-  }
-  return checked;
 }
 
 TEST(ProtocolCommands, WelcomeRoundTrips) {

@@ -1,87 +1,30 @@
 #include <gtest/gtest.h>
 
-#include <cstring>
 #include <limits>
 
-#include <nlohmann/json.hpp>
-
 #include "protocol/protocol.h"
+#include "support/protocol_cases.h"
 
 namespace pd::protocol {
 namespace {
 
-using Json = nlohmann::ordered_json;
+using namespace test;  // the helpers shared by the protocol tests
 
-std::string error_of(const Parts& parts) {
-  try {
-    decode_reply(parts);
-  } catch (const ProtocolError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("(not a ProtocolError: ") + e.what() + ")";
-  }
-  return "(no ProtocolError thrown)";
+// The shared helpers bound to this file's family, the scheduler replies. The field checks take the
+// JSON pointer of the object to go over inside part 0 and the prefix its fields are named with.
+std::string error_of(const Parts& parts) { return test::error_of(parts, decode_reply); }
+
+int check_every_field_required(const Parts& parts, const std::string& pointer, const std::string& prefix) {
+  return test::check_every_field_required(parts, decode_reply, pointer, prefix);
 }
 
-::testing::AssertionResult has(const std::string& text, const std::string& part) {
-  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
-}
-
-bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
-
-Json header(const Parts& p) { return Json::parse(p.at(0)); }
-
-Parts with_header(Parts p, const Json& h) {
-  p.at(0) = h.dump();
-  return p;
-}
-
-Parts with_field(const Parts& p, const std::string& name, const Json& value) {
-  Json h = header(p);
-  h[name] = value;
-  return with_header(p, h);
+int check_every_field_typed(const Parts& parts, const std::string& pointer, const std::string& prefix) {
+  return test::check_every_field_typed(parts, decode_reply, pointer, prefix);
 }
 
 template <typename T>
 T round_trip(const T& m) {
-  const Parts parts = encode(m);
-  EXPECT_EQ(parts, encode(Reply{m}));
-  const Reply r = decode_reply(parts);
-  EXPECT_TRUE(std::holds_alternative<T>(r));
-  return std::get<T>(r);
-}
-
-// Erases each field of the JSON object at `pointer` inside part 0 (but "v" and "type"); each decode
-// must say that field, named `prefix` + key, is missing. Returns the number checked.
-int check_every_field_required(const Parts& parts, const std::string& pointer, const std::string& prefix) {
-  const Json h = header(parts);
-  const std::string type = h.at("type");
-  const Json& object = h.at(Json::json_pointer(pointer));
-  int checked = 0;
-  for (auto it = object.begin(); it != object.end(); ++it) {
-    if (pointer.empty() && (it.key() == "v" || it.key() == "type")) continue;
-    Json without = h;
-    without.at(Json::json_pointer(pointer)).erase(it.key());
-    EXPECT_EQ(error_of(with_header(parts, without)), type + ": field '" + prefix + it.key() + "': missing");
-    ++checked;
-  }
-  return checked;
-}
-
-int check_every_field_typed(const Parts& parts, const std::string& pointer, const std::string& prefix) {
-  const Json h = header(parts);
-  const std::string type = h.at("type");
-  const Json& object = h.at(Json::json_pointer(pointer));
-  int checked = 0;
-  for (auto it = object.begin(); it != object.end(); ++it) {
-    if (pointer.empty() && (it.key() == "v" || it.key() == "type")) continue;
-    Json wrong = h;
-    wrong.at(Json::json_pointer(pointer))[it.key()] = it.value().is_string() ? Json(5) : Json("x");
-    EXPECT_TRUE(has(error_of(with_header(parts, wrong)), type + ": field '" + prefix + it.key() + "': expected"));
-    ++checked;
-  }
-  return checked;
+  return test::round_trip<Reply>(m, decode_reply);
 }
 
 StatusReply sample_status() {

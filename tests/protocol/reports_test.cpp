@@ -1,86 +1,23 @@
 #include <gtest/gtest.h>
 
-#include <cstring>
 #include <limits>
 
-#include <nlohmann/json.hpp>
-
 #include "protocol/protocol.h"
+#include "support/protocol_cases.h"
 
 namespace pd::protocol {
 namespace {
 
-using Json = nlohmann::ordered_json;
+using namespace test;  // the helpers shared by the protocol tests
 
-std::string error_of(const Parts& parts) {
-  try {
-    decode_report(parts);
-  } catch (const ProtocolError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("(not a ProtocolError: ") + e.what() + ")";
-  }
-  return "(no ProtocolError thrown)";
-}
-
-::testing::AssertionResult has(const std::string& text, const std::string& part) {
-  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
-}
-
-bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
-  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
-}
-
-bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
-
-Json header(const Parts& p) { return Json::parse(p.at(0)); }
-
-Parts with_header(Parts p, const Json& h) {
-  p.at(0) = h.dump();
-  return p;
-}
-
-Parts with_field(const Parts& p, const std::string& name, const Json& value) {
-  Json h = header(p);
-  h[name] = value;
-  return with_header(p, h);
-}
+// The shared helpers bound to this file's family, the worker reports.
+std::string error_of(const Parts& parts) { return test::error_of(parts, decode_report); }
+int check_every_field_required(const Parts& parts) { return test::check_every_field_required(parts, decode_report); }
+int check_every_field_typed(const Parts& parts) { return test::check_every_field_typed(parts, decode_report); }
 
 template <typename T>
 T round_trip(const T& m) {
-  const Parts parts = encode(m);
-  EXPECT_EQ(parts, encode(Report{m}));
-  const Report r = decode_report(parts);
-  EXPECT_TRUE(std::holds_alternative<T>(r));
-  return std::get<T>(r);
-}
-
-int check_every_field_required(const Parts& parts) {
-  const Json h = header(parts);
-  const std::string type = h.at("type");
-  int checked = 0;
-  for (auto it = h.begin(); it != h.end(); ++it) {
-    if (it.key() == "v" || it.key() == "type") continue;
-    Json without = h;
-    without.erase(it.key());
-    EXPECT_EQ(error_of(with_header(parts, without)), type + ": field '" + it.key() + "': missing");
-    ++checked;
-  }
-  return checked;
-}
-
-int check_every_field_typed(const Parts& parts) {
-  const Json h = header(parts);
-  const std::string type = h.at("type");
-  int checked = 0;
-  for (auto it = h.begin(); it != h.end(); ++it) {
-    if (it.key() == "v" || it.key() == "type") continue;
-    const Json wrong = it.value().is_string() ? Json(5) : Json("x");
-    EXPECT_TRUE(has(error_of(with_field(parts, it.key(), wrong)), type + ": field '" + it.key() + "': expected"));
-    ++checked;
-  }
-  return checked;
+  return test::round_trip<Report>(m, decode_report);
 }
 
 FrameReport sample_frame() {

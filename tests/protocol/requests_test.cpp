@@ -1,78 +1,22 @@
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
-
 #include "protocol/protocol.h"
+#include "support/protocol_cases.h"
 
 namespace pd::protocol {
 namespace {
 
-using Json = nlohmann::ordered_json;
+using namespace test;  // the helpers shared by the protocol tests
 
-std::string error_of(const Parts& parts) {
-  try {
-    decode_request(parts);
-  } catch (const ProtocolError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("(not a ProtocolError: ") + e.what() + ")";
-  }
-  return "(no ProtocolError thrown)";
-}
-
-::testing::AssertionResult has(const std::string& text, const std::string& part) {
-  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
-}
-
-Json header(const Parts& p) { return Json::parse(p.at(0)); }
-
-Parts with_header(Parts p, const Json& h) {
-  p.at(0) = h.dump();
-  return p;
-}
-
-Parts with_field(const Parts& p, const std::string& name, const Json& value) {
-  Json h = header(p);
-  h[name] = value;
-  return with_header(p, h);
-}
+// The shared helpers bound to this file's family, the client requests.
+std::string error_of(const Parts& parts) { return test::error_of(parts, decode_request); }
+int check_every_field_required(const Parts& parts) { return test::check_every_field_required(parts, decode_request); }
+int check_every_field_typed(const Parts& parts) { return test::check_every_field_typed(parts, decode_request); }
 
 template <typename T>
 T round_trip(const T& m) {
-  const Parts parts = encode(m);
-  EXPECT_EQ(parts, encode(Request{m}));
-  EXPECT_EQ(parts.size(), 1u);  // no request has data parts
-  const Request r = decode_request(parts);
-  EXPECT_TRUE(std::holds_alternative<T>(r));
-  return std::get<T>(r);
-}
-
-int check_every_field_required(const Parts& parts) {
-  const Json h = header(parts);
-  const std::string type = h.at("type");
-  int checked = 0;
-  for (auto it = h.begin(); it != h.end(); ++it) {
-    if (it.key() == "v" || it.key() == "type") continue;
-    Json without = h;
-    without.erase(it.key());
-    EXPECT_EQ(error_of(with_header(parts, without)), type + ": field '" + it.key() + "': missing");
-    ++checked;
-  }
-  return checked;
-}
-
-int check_every_field_typed(const Parts& parts) {
-  const Json h = header(parts);
-  const std::string type = h.at("type");
-  int checked = 0;
-  for (auto it = h.begin(); it != h.end(); ++it) {
-    if (it.key() == "v" || it.key() == "type") continue;
-    const Json wrong = it.value().is_string() ? Json(5) : Json("x");
-    EXPECT_TRUE(has(error_of(with_field(parts, it.key(), wrong)), type + ": field '" + it.key() + "': expected"));
-    ++checked;
-  }
-  return checked;
+  EXPECT_EQ(encode(m).size(), 1u);  // no request has data parts
+  return test::round_trip<Request>(m, decode_request);
 }
 
 SubmitJob sample_submit() {

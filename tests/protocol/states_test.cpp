@@ -3,19 +3,12 @@
 #include <set>
 
 #include "protocol/protocol.h"
+#include "support/protocol_cases.h"
 
 namespace pd::protocol {
 namespace {
 
-template <typename F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const ProtocolError& e) {
-    return e.what();
-  }
-  return "(no ProtocolError thrown)";
-}
+using namespace test;  // error_of: the helpers shared by the protocol tests
 
 // The names are what the task store holds and the wire carries: written out here, not derived.
 TEST(ProtocolStates, EveryJobStateRoundTripsThroughItsName) {

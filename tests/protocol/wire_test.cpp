@@ -11,29 +11,14 @@
 #include <set>
 
 #include "protocol/protocol.h"
+#include "support/protocol_cases.h"
 
 namespace pd::protocol {
 namespace {
 
 using wire::Json;
 
-// The ProtocolError message of f(), or a text saying what happened instead.
-template <typename F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const ProtocolError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("(not a ProtocolError: ") + e.what() + ")";
-  }
-  return "(no ProtocolError thrown)";
-}
-
-::testing::AssertionResult has(const std::string& text, const std::string& part) {
-  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
-}
+using namespace test;  // error_of, has: the helpers shared by the protocol tests
 
 uint64_t bits(double x) {
   uint64_t b;
