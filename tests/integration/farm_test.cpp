@@ -420,6 +420,35 @@ TEST_F(FarmTest, AWorkerKilledMidJobIsReplacedAndTheFramesStayThoseOfTheUninterr
   for (int l = 0; l < got.num_levels(); ++l) expect_identical_frames(got, want, l, 0, kFrames);
 }
 
+// A preview-only job ends done with level 0 alone; pd refine then adds the refinement levels, which
+// run from the stored preview and give the frames of one progressive run bit for bit.
+TEST_F(FarmTest, RefiningAFinishedPreviewAddsTheLevelsAndGivesTheFramesOfOneProgressiveRun) {
+  constexpr int kFrames = 30;
+  Farm& farm = start_farm(2, "farm_refine");
+  const std::string scene = scene_path("cube-trampoline.json"), ref_path = farm.dir() + "/ref.h5";
+  const int64_t job = submit(farm, {scene, "--frames", std::to_string(kFrames), "--preview-only"});
+  wait_until_done(farm, job, kShortJob);
+  const json preview = job_status(farm, job);
+  EXPECT_TRUE(preview.at("preview_only").get<bool>());
+  ASSERT_EQ(preview.at("levels").size(), 1u) << preview.dump();
+  expect_every_level_complete(preview, kFrames);
+
+  const test::RunResult refine = farm.pd({"refine", std::to_string(job)});
+  ASSERT_EQ(refine.exit_code, 0) << refine.describe();
+  const test::RunResult again = farm.pd({"refine", std::to_string(job)});
+  EXPECT_EQ(again.exit_code, 2) << "a second refine must be refused: " << again.describe();
+  test::Process ref = start_reference(scene, ref_path, kFrames);
+  wait_until_done(farm, job, kShortJob);
+  fetch(farm, job, farm.dir() + "/job.h5");
+  finish_reference(ref, ref_path, kShortJob);
+  const json refined = job_status(farm, job);
+  EXPECT_FALSE(refined.at("preview_only").get<bool>());
+  ASSERT_EQ(refined.at("levels").size(), 3u) << refined.dump();
+  expect_every_level_complete(refined, kFrames);
+  const FrameReader got(farm.dir() + "/job.h5"), want(ref_path);
+  for (int l = 0; l < got.num_levels(); ++l) expect_identical_frames(got, want, l, 0, kFrames);
+}
+
 TEST_F(FarmTest, SecondJobQueuesThenRunsAndCancellingTheFirstFreesItsWorkersWithinHeartbeats) {
   Farm& farm = start_farm(2, "farm_cancel");
   const std::string scene = scene_path("cube-trampoline.json");
