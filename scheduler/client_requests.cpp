@@ -30,7 +30,7 @@ void Scheduler::on_client_message(const std::string& identity, const protocol::P
   } catch (const protocol::ProtocolError& e) {
     event("request_refused", 0, 0, 0, e.what(), false);
     reply = error(std::string("malformed request: ") + e.what());
-  } catch (const StoreError& e) {
+  } catch (const std::exception& e) {  // the store refused (an id out of range, say)
     reply = error(e.what());
   }
   try {

@@ -43,7 +43,13 @@ void Scheduler::on_worker_message(const std::string& identity, const protocol::P
     return;
   }
   if (it != sessions_.end()) it->second.last_heard = Clock::now();
-  std::visit([&](auto& m) { on_report(identity, m); }, report);
+  try {
+    std::visit([&](auto& m) { on_report(identity, m); }, report);
+  } catch (const std::exception& e) {
+    // A report the store or the job file cannot take (a hello with 0 cores, say) is refused; the
+    // scheduler goes on serving every other peer.
+    refuse(identity, std::string(protocol::message_type(parts)) + ": " + e.what());
+  }
 }
 
 void Scheduler::on_report(const std::string& identity, protocol::Hello& m) {

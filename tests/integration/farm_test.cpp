@@ -34,6 +34,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "farm/messaging.h"
+#include "protocol/protocol.h"
 #include "store/frame_store.h"
 #include "support/intersection_checker.h"
 #include "support/process.h"
@@ -95,6 +97,7 @@ class Farm {
 
   const std::string& dir() const { return dir_; }
   const std::string& clients() const { return clients_; }
+  const std::string& workers_endpoint() const { return workers_endpoint_; }
 
   // pd ARGS --farm <clients>, bounded by `timeout`.
   test::RunResult pd(Args args, std::chrono::milliseconds timeout = kCommand) const {
@@ -515,6 +518,56 @@ void expect_usage_error(const test::RunResult& r, const std::string& mention) {
   EXPECT_EQ(r.exit_code, 2) << r.describe();
   EXPECT_NE(r.err.find("pd: error:"), std::string::npos) << r.describe();
   EXPECT_NE(r.err.find(mention), std::string::npos) << "expected '" << mention << "' in: " << r.describe();
+}
+
+// The reason of the next `refused` the scheduler sends `peer` after `parts` (welcome and heartbeats
+// in between are skipped), or "(no answer)" after 5 s.
+std::string refusal_of(zmq::socket_t& peer, const protocol::Parts& parts) {
+  farm::send_parts(peer, parts);
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (std::chrono::steady_clock::now() < deadline) {
+    const std::optional<protocol::Parts> reply = farm::recv_parts_within(peer, 500ms);
+    if (!reply) continue;
+    const protocol::Command c = protocol::decode_command(*reply);
+    if (const auto* r = std::get_if<protocol::Refused>(&c)) return r->reason;
+  }
+  return "(no answer)";
+}
+
+// A peer on the worker socket that misbehaves: not a message, a report before any hello, a hello
+// the store cannot take, a frame for a task it was never given, then silence while registered
+// (it is given the hierarchy task and never answers). Each bad message is refused with its reason,
+// and the scheduler keeps serving: its own worker runs a job to the end.
+TEST_F(FarmTest, BadWorkerMessagesAreRefusedAndTheSchedulerKeepsServing) {
+  Farm& farm = start_farm(1, "farm_bad_peer");
+  zmq::context_t ctx(1);
+  zmq::socket_t peer(ctx, zmq::socket_type::dealer);
+  farm::configure_socket(peer);
+  peer.connect(farm.workers_endpoint());
+  EXPECT_NE(refusal_of(peer, {"not json"}).find("malformed report"), std::string::npos);
+  protocol::FrameReport frame;
+  frame.attempt = 9;
+  frame.task = 1;
+  frame.frame = 1;
+  frame.positions = {0.0, 0.0, 0.0};
+  EXPECT_NE(refusal_of(peer, protocol::encode(frame)).find("send hello first"), std::string::npos);
+  protocol::Hello hello;
+  hello.name = "intruder";
+  hello.host = "nowhere";
+  hello.version = "0";
+  hello.cores = 0;
+  EXPECT_NE(refusal_of(peer, protocol::encode(hello)).find("cores"), std::string::npos);
+  hello.cores = 1;
+  farm::send_parts(peer, protocol::encode(hello));
+  EXPECT_NE(refusal_of(peer, protocol::encode(frame)).find("not this worker's running attempt"), std::string::npos);
+
+  const int64_t job = submit(farm, {scene_path("cube-trampoline.json"), "--frames", "10"});
+  wait_until_done(farm, job, kShortJob);
+  expect_every_level_complete(job_status(farm, job), 10);
+  const json workers = parse_json(farm.pd({"workers", "--json"})).at("workers");
+  const auto intruder = std::find_if(workers.begin(), workers.end(), [](const json& w) { return w.at("name") == "intruder"; });
+  ASSERT_NE(intruder, workers.end()) << workers.dump();
+  EXPECT_EQ(intruder->at("state"), "lost");
 }
 
 TEST_F(FarmTest, BadScenesJobsOptionsAndUnreachableFarmsExitTwoWithClearMessages) {
