@@ -39,7 +39,7 @@ void Scheduler::on_worker_message(const std::string& identity, const protocol::P
   }
   auto it = sessions_.find(identity);
   if (it == sessions_.end() && !std::holds_alternative<protocol::Hello>(report)) {
-    refuse(identity, "unknown worker: send hello first");
+    refuse(identity, protocol::kUnknownWorkerReason);
     return;
   }
   if (it != sessions_.end()) it->second.last_heard = Clock::now();

@@ -74,6 +74,10 @@ class Session {
       flush_runner();
       const auto now = Clock::now();
       if (now - last_sent_ >= heartbeat_) send_heartbeat();
+      if (unknown_) {
+        if (runner_.busy()) runner_.cancel();
+        return true;
+      }
       if (now - last_heard_ > kLiveness * heartbeat_) {
         log_line(options_, "scheduler lost", "no message for " + std::to_string(kLiveness) + " heartbeats");
         if (runner_.busy()) runner_.cancel();
@@ -153,7 +157,11 @@ class Session {
     runner_.cancel();
   }
   void on(protocol::SchedulerHeartbeat&) {}
-  void on(protocol::Refused& m) { log_line(options_, "scheduler refused a report", m.reason); }
+  void on(protocol::Refused& m) {
+    log_line(options_, "scheduler refused a report", m.reason);
+    // The scheduler does not know this worker (it restarted, or gave it up as lost): start again.
+    if (m.reason == protocol::kUnknownWorkerReason) unknown_ = true;
+  }
 
   zmq::socket_t socket_;
   const WorkerOptions& options_;
@@ -162,6 +170,7 @@ class Session {
   std::chrono::milliseconds heartbeat_;
   Clock::time_point last_heard_, last_sent_;
   bool welcomed_ = false;
+  bool unknown_ = false;  // the scheduler said it has no session for this worker
   int64_t worker_id_ = 0, running_attempt_ = 0;
 };
 

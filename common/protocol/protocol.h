@@ -155,6 +155,9 @@ struct SchedulerHeartbeat {};
 struct Refused {
   std::string reason;
 };
+// The reason a scheduler gives a peer it has no session for (it restarted, or dropped the worker as
+// lost): a worker that gets it says Hello again.
+constexpr const char* kUnknownWorkerReason = "unknown worker: send hello first";
 
 using Command = std::variant<Welcome, AssignTask, BelowFrame, CancelTask, SchedulerHeartbeat, Refused>;
 

@@ -649,6 +649,50 @@ class AdoptOrphans {
   }
 };
 
+// A scheduler stopped and started again on the same endpoints: the worker that was connected is told
+// it is unknown (or misses 3 heartbeats), says hello again, and takes the new scheduler's work.
+TEST(SchedulerRestart, AConnectedWorkerRegistersAgainWithTheNewSchedulerAndRunsItsJob) {
+  const std::string dir = test::scratch_dir("farm_restart");
+  auto start_scheduler = [&](test::Process& p, const std::string& workers, const std::string& clients,
+                             const std::string& tag) -> json {
+    const std::string out = dir + "/scheduler-" + tag + ".out";
+    p.start({PD_SCHEDULER_BINARY, "--dir", dir + "/farm-" + tag, "--workers-endpoint", workers, "--clients-endpoint",
+             clients},
+            {}, out, dir + "/scheduler-" + tag + ".log");
+    const auto line = test::read_first_line(out, 20s, &p);
+    if (!line) throw std::runtime_error("no listening line: " + test::file_tail(dir + "/scheduler-" + tag + ".log"));
+    return json::parse(*line);
+  };
+  test::Process first, second, worker;
+  const json listening = start_scheduler(first, "tcp://127.0.0.1:0", "tcp://127.0.0.1:0", "a");
+  const std::string workers = listening.at("workers"), clients = listening.at("clients");
+  worker.start({PD_WORKER_BINARY, "--connect", workers, "--name", "w1", "--scratch", dir + "/scratch"}, {},
+               dir + "/worker.log", dir + "/worker.log");
+  auto idle_workers = [&] {
+    const test::RunResult r = test::run({PD_BINARY, "workers", "--json", "--farm", clients}, kCommand);
+    if (r.exit_code != 0) return 0L;
+    const json w = parse_json(r).at("workers");
+    return static_cast<long>(std::count_if(w.begin(), w.end(), [](const json& x) { return x.at("state") == "idle"; }));
+  };
+  ASSERT_TRUE(eventually(20s, [&] { return idle_workers() == 1; })) << test::file_tail(dir + "/worker.log");
+  ASSERT_EQ(first.terminate(10s), 0);
+  // A fresh farm folder (restarting on the same folder fails its unfinished jobs; none here).
+  start_scheduler(second, workers, clients, "b");
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(eventually(40s, [&] { return idle_workers() == 1; })) << test::file_tail(dir + "/worker.log");
+  std::printf("the worker registered with the new scheduler after %.1f s\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  const test::RunResult sub = test::run(
+      {PD_BINARY, "submit", scene_path("cube-trampoline.json"), "--frames", "5", "--farm", clients}, kCommand);
+  ASSERT_EQ(sub.exit_code, 0) << sub.describe();
+  const test::RunResult wait = test::run(
+      {PD_BINARY, "status", "1", "--wait", "--interval", "0.2", "--farm", clients}, kShortJob);
+  EXPECT_EQ(wait.exit_code, 0) << wait.describe() << test::file_tail(dir + "/worker.log");
+  worker.terminate(5s);
+  EXPECT_EQ(second.terminate(10s), 0);
+  if (!::testing::Test::HasFailure()) std::filesystem::remove_all(dir);
+}
+
 TEST(PdRun, TwoWorkersTwentyFramesMatchPdSimulateBitForBitAndLeaveNoFarmProcess) {
   constexpr int kFrames = 20;
   const std::string dir = test::scratch_dir("pd_run"), scene = scene_path("cube-trampoline.json");
