@@ -76,28 +76,33 @@ void Scheduler::event(const std::string& kind, int64_t job, int64_t task, int64_
 
 void Scheduler::run(const std::atomic<bool>& stop) {
   while (!stop) {
-    zmq::pollitem_t items[] = {{workers_.handle(), 0, ZMQ_POLLIN, 0}, {clients_.handle(), 0, ZMQ_POLLIN, 0}};
     try {
-      zmq::poll(items, 2, heartbeat_ / 4);
+      turn();
     } catch (const zmq::error_t& e) {
-      if (e.num() == EINTR) continue;  // a signal: the loop condition sees `stop`
-      throw;
+      // A signal interrupted a ZeroMQ call (poll, a socket option, a receive): the loop condition
+      // sees `stop`. Anything else is a real failure.
+      if (e.num() != EINTR) throw;
     }
-    // Drain what is queued on each socket, a bounded number per turn so neither side starves.
-    for (int k = 0; k < 256 && (items[0].revents & ZMQ_POLLIN); ++k) {
-      if (!(workers_.get(zmq::sockopt::events) & ZMQ_POLLIN)) break;
-      std::optional<farm::Routed> m = farm::recv_routed(workers_);
-      if (m) on_worker_message(m->identity, m->parts);
-    }
-    for (int k = 0; k < 64 && (items[1].revents & ZMQ_POLLIN); ++k) {
-      if (!(clients_.get(zmq::sockopt::events) & ZMQ_POLLIN)) break;
-      std::optional<farm::Routed> m = farm::recv_routed(clients_);
-      if (m) on_client_message(m->identity, m->parts);
-    }
-    dispatch();
-    preempt_starved();
-    heartbeats_and_liveness();
   }
+}
+
+void Scheduler::turn() {
+  zmq::pollitem_t items[] = {{workers_.handle(), 0, ZMQ_POLLIN, 0}, {clients_.handle(), 0, ZMQ_POLLIN, 0}};
+  zmq::poll(items, 2, heartbeat_ / 4);
+  // Drain what is queued on each socket, a bounded number per turn so neither side starves.
+  for (int k = 0; k < 256 && (items[0].revents & ZMQ_POLLIN); ++k) {
+    if (!(workers_.get(zmq::sockopt::events) & ZMQ_POLLIN)) break;
+    std::optional<farm::Routed> m = farm::recv_routed(workers_);
+    if (m) on_worker_message(m->identity, m->parts);
+  }
+  for (int k = 0; k < 64 && (items[1].revents & ZMQ_POLLIN); ++k) {
+    if (!(clients_.get(zmq::sockopt::events) & ZMQ_POLLIN)) break;
+    std::optional<farm::Routed> m = farm::recv_routed(clients_);
+    if (m) on_client_message(m->identity, m->parts);
+  }
+  dispatch();
+  preempt_starved();
+  heartbeats_and_liveness();
 }
 
 void Scheduler::send_worker(const std::string& identity, const protocol::Parts& parts) {

@@ -82,6 +82,7 @@ class Scheduler {
   protocol::JobStatus job_status(const JobRow& job);
 
   // scheduler.cpp
+  void turn();  // one loop turn: receive, dispatch, preempt, heartbeats
   void dispatch();
   bool assign(const std::string& identity, Session& s, const Claim& claim);
   void feed_stored_frames(const std::string& identity, Session& s, const TaskRow& task);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <optional>
 #include <set>
 #include <thread>
 
@@ -55,33 +56,11 @@ class Session {
 
   bool run(const std::atomic<bool>& stop) {
     while (!stop) {
-      zmq::pollitem_t items[] = {{socket_.handle(), 0, ZMQ_POLLIN, 0}, {nullptr, wake_fd_, ZMQ_POLLIN, 0}};
       try {
-        zmq::poll(items, 2, heartbeat_ / 4);
+        if (const std::optional<bool> ended = turn()) return *ended;
       } catch (const zmq::error_t& e) {
-        if (e.num() == EINTR) continue;  // a signal: the loop condition sees `stop`
-        throw;
-      }
-      if (items[1].revents & ZMQ_POLLIN) {
-        uint64_t count;
-        if (read(wake_fd_, &count, sizeof count) < 0) {
-        }
-      }
-      if (items[0].revents & ZMQ_POLLIN) {
-        std::optional<protocol::Parts> parts = farm::recv_parts(socket_);
-        if (parts) handle(*parts);
-      }
-      flush_runner();
-      const auto now = Clock::now();
-      if (now - last_sent_ >= heartbeat_) send_heartbeat();
-      if (unknown_) {
-        if (runner_.busy()) runner_.cancel();
-        return true;
-      }
-      if (now - last_heard_ > kLiveness * heartbeat_) {
-        log_line(options_, "scheduler lost", "no message for " + std::to_string(kLiveness) + " heartbeats");
-        if (runner_.busy()) runner_.cancel();
-        return true;
+        // A signal interrupted a ZeroMQ call: the loop condition sees `stop`.
+        if (e.num() != EINTR) throw;
       }
     }
     return false;
@@ -90,6 +69,35 @@ class Session {
   bool welcomed() const { return welcomed_; }
 
  private:
+  // One loop turn; a value when the session ends (true: reconnect).
+  std::optional<bool> turn() {
+    zmq::pollitem_t items[] = {{socket_.handle(), 0, ZMQ_POLLIN, 0}, {nullptr, wake_fd_, ZMQ_POLLIN, 0}};
+    zmq::poll(items, 2, heartbeat_ / 4);
+    if (items[1].revents & ZMQ_POLLIN) {
+      uint64_t count;
+      if (read(wake_fd_, &count, sizeof count) < 0) {
+        // EAGAIN: another turn consumed the wake-up already
+      }
+    }
+    if (items[0].revents & ZMQ_POLLIN) {
+      std::optional<protocol::Parts> parts = farm::recv_parts(socket_);
+      if (parts) handle(*parts);
+    }
+    flush_runner();
+    const auto now = Clock::now();
+    if (now - last_sent_ >= heartbeat_) send_heartbeat();
+    if (unknown_) {
+      if (runner_.busy()) runner_.cancel();
+      return true;
+    }
+    if (now - last_heard_ > kLiveness * heartbeat_) {
+      log_line(options_, "scheduler lost", "no message for " + std::to_string(kLiveness) + " heartbeats");
+      if (runner_.busy()) runner_.cancel();
+      return true;
+    }
+    return std::nullopt;
+  }
+
   void send(const protocol::Parts& parts) {
     farm::send_parts(socket_, parts);
     last_sent_ = Clock::now();
