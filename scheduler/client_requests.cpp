@@ -146,8 +146,8 @@ protocol::JobStatus Scheduler::job_status(const JobRow& job) {
     ts.reason = t.reason;
     ts.attempts = t.attempts;
     ts.worker = t.worker ? names[t.worker] : "";
-    if (t.kind == protocol::TaskKind::level)
-      ts.frames_done = static_cast<int>(store_->stored_frames(job.id, t.level, t.first == 0 ? 0 : t.first + 1, t.last).size());
+    if (const std::optional<farm::FrameRange> own = farm::produced_frames(as_new_task(t)))
+      ts.frames_done = static_cast<int>(store_->stored_frames(job.id, own->level, own->first, own->last).size());
     else
       ts.frames_done = t.state == protocol::TaskState::done ? 1 : 0;
     running += t.state == protocol::TaskState::running;

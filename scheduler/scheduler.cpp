@@ -17,7 +17,9 @@ namespace {
 
 std::vector<double> as_vector(const Positions& x) { return std::vector<double>(x.data(), x.data() + x.size()); }
 
-// Level-task ranges as the task graph defines them, for a stored task row.
+
+}  // namespace
+
 NewTask as_new_task(const TaskRow& t) {
   NewTask n;
   n.kind = t.kind;
@@ -26,8 +28,6 @@ NewTask as_new_task(const TaskRow& t) {
   n.last = t.last;
   return n;
 }
-
-}  // namespace
 
 Scheduler::Scheduler(const SchedulerOptions& options)
     : options_(options),

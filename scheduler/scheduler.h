@@ -32,6 +32,9 @@ struct SchedulerOptions {
 
 constexpr int kLiveness = 3;
 
+// A stored task's kind and range, as the task graph's functions (farm/task_graph.h) take them.
+NewTask as_new_task(const TaskRow& t);
+
 using Clock = std::chrono::steady_clock;
 
 // A connected worker (one DEALER identity).

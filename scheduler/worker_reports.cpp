@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "farm/messaging.h"
+#include "farm/task_graph.h"
 #include "scheduler/scheduler.h"
 #include "util/input_error.h"
 
@@ -95,8 +96,9 @@ void Scheduler::on_report(const std::string& identity, protocol::FrameReport& m)
   const TaskRow t = store_->task(m.task);
   JobFile* f = files_.find(t.job);
   std::string bad;
-  const int lo = t.first == 0 ? 0 : t.first + 1;
-  if (t.kind != protocol::TaskKind::level || !f)
+  const std::optional<farm::FrameRange> own = farm::produced_frames(as_new_task(t));
+  const int lo = own ? own->first : 0;
+  if (!own || !f)
     bad = "a frame for a task that solves no frames";
   else if (m.level != t.level)
     bad = "frame of level " + std::to_string(m.level) + " for a task of level " + std::to_string(t.level);
@@ -156,11 +158,12 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskDone& m) {
   Session* s = attempt_session(identity, m.attempt, m.task, "task_done");
   if (!s) return;
   const TaskRow t = store_->task(m.task);
-  const int lo = t.first == 0 ? 0 : t.first + 1;
-  const std::size_t stored = store_->stored_frames(t.job, t.level, lo, t.last).size();
-  if (t.kind != protocol::TaskKind::level || stored != static_cast<std::size_t>(t.last - lo + 1)) {
-    const std::string why = "reported done with " + std::to_string(stored) + " of " +
-                            std::to_string(t.last - lo + 1) + " frames stored";
+  const std::optional<farm::FrameRange> own = farm::produced_frames(as_new_task(t));
+  const std::size_t stored = own ? store_->stored_frames(t.job, own->level, own->first, own->last).size() : 0;
+  const std::size_t expected = own ? static_cast<std::size_t>(own->last - own->first + 1) : 1;
+  if (!own || stored != expected) {
+    const std::string why = "reported done with " + std::to_string(stored) + " of " + std::to_string(expected) +
+                            " frames stored";
     refuse(identity, why);
     store_->fail_task(t.id, why);
     event("task_failed", t.job, t.id, s->worker, why);

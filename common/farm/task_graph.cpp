@@ -113,4 +113,10 @@ std::optional<FrameRange> fed_frames(const NewTask& task) {
   return FrameRange{task.level - 1, std::max(task.first - 1, 0), task.last - 1};
 }
 
+std::optional<FrameRange> produced_frames(const NewTask& task) {
+  if (task.kind != protocol::TaskKind::level) return std::nullopt;
+  fed_frames(task);  // the same checks
+  return FrameRange{task.level, task.first == 0 ? 0 : task.first + 1, task.last};
+}
+
 }  // namespace pd::farm

@@ -60,4 +60,8 @@ struct FrameRange {
 // std::invalid_argument for a level task with level < 0, first < 0 or last <= first.
 std::optional<FrameRange> fed_frames(const pd::NewTask& task);
 
+// The frames of its own level a level task (a, b] stores: a + 1 .. b, and frame 0 too when a = 0 (the
+// level's initial state, sent first). nullopt for the hierarchy task. Same checks as fed_frames.
+std::optional<FrameRange> produced_frames(const pd::NewTask& task);
+
 }  // namespace pd::farm

@@ -173,6 +173,27 @@ TEST(TaskGraph, FedFramesAreLevelBelowFromMaxAMinusOneToBMinusOne) {
   EXPECT_EQ(second->last, 9);
 }
 
+TEST(TaskGraph, ProducedFramesAreTheTasksOwnFramesWithFrameZeroForTheFirstTask) {
+  const std::vector<NewTask> tasks = job_tasks({10, 3, 2, 4, false});
+  ASSERT_EQ(tasks.size(), 8u);
+  EXPECT_FALSE(produced_frames(tasks[0]).has_value());  // hierarchy
+  const std::optional<FrameRange> start = produced_frames(tasks[1]);  // level 0 (0,4]
+  ASSERT_TRUE(start.has_value());
+  EXPECT_EQ(start->level, 0);
+  EXPECT_EQ(start->first, 0);
+  EXPECT_EQ(start->last, 4);
+  const std::optional<FrameRange> later = produced_frames(tasks[7]);  // level 2 (5,10]
+  ASSERT_TRUE(later.has_value());
+  EXPECT_EQ(later->level, 2);
+  EXPECT_EQ(later->first, 6);
+  EXPECT_EQ(later->last, 10);
+  NewTask bad;
+  bad.level = 1;
+  bad.first = 3;
+  bad.last = 3;
+  EXPECT_THROW(produced_frames(bad), std::invalid_argument);
+}
+
 TEST(TaskGraph, FedFramesRefusesAMalformedLevelTask) {
   NewTask t;
   t.level = 1;

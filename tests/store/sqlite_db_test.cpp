@@ -1,6 +1,7 @@
 #include "store/sqlite_db.h"
 
 #include <gtest/gtest.h>
+#include "support/test_paths.h"
 #include <unistd.h>
 
 #include <cstdint>
@@ -29,10 +30,7 @@ std::string store_error_of(F&& f) {
 class SqliteDbTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("pd_sqlite_db_" + std::to_string(getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = test::scratch_dir("sqlite_db");
     path_ = (dir_ / "test.sqlite").string();
   }
   void TearDown() override { fs::remove_all(dir_); }

@@ -1,6 +1,7 @@
 #include "store/task_store.h"
 
 #include <gtest/gtest.h>
+#include "support/test_paths.h"
 #include <poll.h>
 #include <signal.h>
 #include <sqlite3.h>
@@ -132,10 +133,7 @@ double now_seconds() {
 class TaskStoreTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("pd_task_store_" + std::to_string(getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = test::scratch_dir("task_store");
     path_ = (dir_ / "farm.sqlite").string();
   }
   void TearDown() override { fs::remove_all(dir_); }
