@@ -199,6 +199,10 @@ protocol::Reply Scheduler::serve(protocol::CancelJob& m) {
   return protocol::Accepted{m.job, "cancelled"};
 }
 
+protocol::Reply Scheduler::serve(protocol::RequeueJob& m) {
+  return error("requeue of job " + std::to_string(m.job) + ": not served by this scheduler yet");
+}
+
 protocol::Reply Scheduler::serve(protocol::WorkersRequest&) {
   protocol::WorkersReply r;
   std::map<int64_t, const Session*> live;

@@ -142,6 +142,7 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
   a.level = t.level;
   a.first = t.first;
   a.last = t.last;
+  a.start = t.first;
   a.frames = job.spec.frames;
   a.levels = job.spec.levels;
   a.hessian = job.spec.hessian;

@@ -81,6 +81,7 @@ class Scheduler {
   protocol::Reply serve(protocol::StatusRequest& m);
   protocol::Reply serve(protocol::FetchRequest& m);
   protocol::Reply serve(protocol::CancelJob& m);
+  protocol::Reply serve(protocol::RequeueJob& m);
   protocol::Reply serve(protocol::WorkersRequest& m);
   protocol::JobStatus job_status(const JobRow& job);
 

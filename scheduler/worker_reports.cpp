@@ -77,6 +77,7 @@ void Scheduler::on_report(const std::string& identity, protocol::WorkerHeartbeat
     store_->set_worker_state(s.worker, "idle");
   }
   store_->touch_worker(s.worker);
+  if (m.ping != 0) send_worker(identity, protocol::encode(protocol::SchedulerHeartbeat{m.ping}));
 }
 
 Session* Scheduler::attempt_session(const std::string& identity, int64_t attempt, int64_t task, const char* what) {

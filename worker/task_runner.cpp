@@ -270,7 +270,7 @@ void TaskRunner::run_level(const protocol::AssignTask& task) {
                                  stats.center_of_mass.data() + stats.center_of_mass.size());
     post(protocol::encode(report));
   };
-  solve_level_task(scene, *h, {task.level, task.first, task.last}, inputs, sink, options);
+  solve_level_task(scene, *h, {task.level, task.start, task.last}, inputs, sink, options);
 }
 
 }  // namespace pd::worker

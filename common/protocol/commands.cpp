@@ -30,6 +30,7 @@ Parts encode(const AssignTask& m) {
   h["level"] = m.level;
   h["first"] = m.first;
   h["last"] = m.last;
+  h["start"] = m.start;
   h["frames"] = m.frames;
   h["levels"] = m.levels;
   h["hessian"] = m.hessian;
@@ -74,7 +75,11 @@ Parts encode(const CancelTask& m) {
   return wire::finish(h);
 }
 
-Parts encode(const SchedulerHeartbeat&) { return wire::finish(wire::header(wire::kHeartbeat)); }
+Parts encode(const SchedulerHeartbeat& m) {
+  Json h = wire::header(wire::kHeartbeat);
+  h["pong"] = m.pong;
+  return wire::finish(h);
+}
 
 Parts encode(const Refused& m) {
   Json h = wire::header(wire::kRefused);
@@ -110,6 +115,10 @@ Command decode_assign(const Message& msg) {
   m.level = f.count("level");
   m.first = f.count("first");
   m.last = f.count("last");
+  m.start = f.count("start");
+  if (m.start < m.first || (m.start >= m.last && m.kind == TaskKind::level))
+    throw ProtocolError("assign: field 'start': " + std::to_string(m.start) + " outside [first, last) = [" +
+                        std::to_string(m.first) + ", " + std::to_string(m.last) + ")");
   m.frames = f.count("frames");
   m.levels = f.count("levels");
   m.hessian = f.text("hessian");
@@ -155,7 +164,7 @@ Command decode_cancel_task(const Message& msg) {
 
 Command decode_heartbeat(const Message& msg) {
   msg.expect_parts(1);
-  return SchedulerHeartbeat{};
+  return SchedulerHeartbeat{msg.fields().id("pong")};
 }
 
 Command decode_refused(const Message& msg) {

@@ -34,7 +34,7 @@
 namespace pd::protocol {
 
 // Bumped on any change to a message's fields or meaning; peers with another version are refused.
-constexpr int kProtocolVersion = 1;
+constexpr int kProtocolVersion = 2;  // 2: AssignTask.start, heartbeat ping/pong, RequeueJob
 
 // Upper bound on a whole message (all parts), bytes; larger messages are refused when decoded (and
 // sockets set ZMQ_MAXMSGSIZE to it). 1 GiB: a job file fetched in one reply must fit.
@@ -118,6 +118,10 @@ struct AssignTask {
   int level = 0;
   int first = 0;  // a
   int last = 0;   // b
+  // The frame this attempt starts from, first <= start < last: first for a task's first attempt;
+  // a later attempt continues horizontally from the task's last stored frames (own_before/own_start
+  // are then frames start - 1 and start, own_kappa the barrier stiffness at start).
+  int start = 0;
   int frames = 0;  // the job's frame count N (overrides the scene's)
   int levels = 0;  // the job's hierarchy level count (overrides the scene's hierarchy.levels)
   std::string hessian;  // prolonged Hessian name ("lagged", "galerkin", "coarse")
@@ -126,8 +130,8 @@ struct AssignTask {
   // kind == level: the hierarchy file's bytes when the scheduler has not sent this hash to this
   // worker yet (data part 1 when present; "hierarchy_bytes" in the header says its size).
   std::optional<std::string> hierarchy_blob;
-  // Horizontal continuation: the level's own frames first - 1 and first (3 n_l doubles each, data
-  // parts after the blob) and, with contact, the barrier stiffness at frame first (J/m^4).
+  // Horizontal continuation: the level's own frames start - 1 and start (3 n_l doubles each, data
+  // parts after the blob) and, with contact, the barrier stiffness at frame start (J/m^4).
   std::optional<std::vector<double>> own_before, own_start;
   std::optional<double> own_kappa;
 };
@@ -148,8 +152,11 @@ struct CancelTask {
   std::string reason;
 };
 
-// The scheduler is alive (sent every heartbeat_ms to each connected worker).
-struct SchedulerHeartbeat {};
+// The scheduler is alive (sent every heartbeat_ms to each connected worker). pong: the ping of the
+// worker heartbeat it answers at once (0 for a periodic heartbeat), so the worker can time the round trip.
+struct SchedulerHeartbeat {
+  int64_t pong = 0;
+};
 
 // A report was refused (stale attempt, malformed, out of order); the worker logs it.
 struct Refused {
@@ -172,9 +179,11 @@ struct Hello {
   std::string host;
 };
 
-// The worker is alive; `attempt` is the attempt it is running (0 = idle).
+// The worker is alive; `attempt` is the attempt it is running (0 = idle). ping != 0 asks for an
+// immediate SchedulerHeartbeat with pong = ping (a round-trip probe; load tests use it).
 struct WorkerHeartbeat {
   int64_t attempt = 0;
+  int64_t ping = 0;
 };
 
 // One solved frame of the attempt's task (frame 0 too, when the task starts at frame 0).
@@ -250,9 +259,15 @@ struct CancelJob {
   int64_t job = 0;
 };
 
+// Retry a failed job: its failed and blocked tasks go back to waiting (ready when their inputs are
+// stored), the failures that excluded workers are forgotten, the job runs again.
+struct RequeueJob {
+  int64_t job = 0;
+};
+
 struct WorkersRequest {};
 
-using Request = std::variant<SubmitJob, RefineJob, StatusRequest, FetchRequest, CancelJob, WorkersRequest>;
+using Request = std::variant<SubmitJob, RefineJob, StatusRequest, FetchRequest, CancelJob, RequeueJob, WorkersRequest>;
 
 // ---------------------------------------------------------------------------------------------------
 // Replies: scheduler -> client.
@@ -261,7 +276,7 @@ struct Submitted {
   int64_t job = 0;
 };
 
-// Reply to RefineJob and CancelJob.
+// Reply to RefineJob, CancelJob and RequeueJob.
 struct Accepted {
   int64_t job = 0;
   std::string message;
@@ -359,6 +374,7 @@ Parts encode(const RefineJob& m);
 Parts encode(const StatusRequest& m);
 Parts encode(const FetchRequest& m);
 Parts encode(const CancelJob& m);
+Parts encode(const RequeueJob& m);
 Parts encode(const WorkersRequest& m);
 Parts encode(const Request& m);
 

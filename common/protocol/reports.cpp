@@ -24,6 +24,7 @@ Parts encode(const Hello& m) {
 Parts encode(const WorkerHeartbeat& m) {
   Json h = wire::header(wire::kWorkerHeartbeat);
   h["attempt"] = m.attempt;
+  h["ping"] = m.ping;
   return wire::finish(h);
 }
 
@@ -96,7 +97,8 @@ Report decode_hello(const Message& msg) {
 
 Report decode_worker_heartbeat(const Message& msg) {
   msg.expect_parts(1);
-  return WorkerHeartbeat{msg.fields().id("attempt")};
+  const wire::Fields f = msg.fields();
+  return WorkerHeartbeat{f.id("attempt"), f.id("ping")};
 }
 
 std::vector<Stat> read_stats(const wire::Fields& f) {

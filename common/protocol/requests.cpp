@@ -46,6 +46,7 @@ Parts encode(const RefineJob& m) {
 Parts encode(const StatusRequest& m) { return encode_job(wire::kStatus, m.job); }
 Parts encode(const FetchRequest& m) { return encode_job(wire::kFetch, m.job); }
 Parts encode(const CancelJob& m) { return encode_job(wire::kCancelJob, m.job); }
+Parts encode(const RequeueJob& m) { return encode_job(wire::kRequeue, m.job); }
 Parts encode(const WorkersRequest&) { return wire::finish(wire::header(wire::kWorkers)); }
 
 Parts encode(const Request& m) {
@@ -81,7 +82,7 @@ Request decode_refine(const Message& msg) {
   return m;
 }
 
-// StatusRequest, FetchRequest, CancelJob: {"job"}.
+// StatusRequest, FetchRequest, CancelJob, RequeueJob: {"job"}.
 template <typename T>
 Request decode_job(const Message& msg) {
   msg.expect_parts(1);
@@ -96,12 +97,13 @@ Request decode_workers(const Message& msg) {
 }
 
 using Decoder = Request (*)(const Message&);
-constexpr std::array<std::pair<const char*, Decoder>, 6> kDecoders{{
+constexpr std::array<std::pair<const char*, Decoder>, 7> kDecoders{{
     {wire::kSubmit, decode_submit},
     {wire::kRefine, decode_refine},
     {wire::kStatus, decode_job<StatusRequest>},
     {wire::kFetch, decode_job<FetchRequest>},
     {wire::kCancelJob, decode_job<CancelJob>},
+    {wire::kRequeue, decode_job<RequeueJob>},
     {wire::kWorkers, decode_workers},
 }};
 

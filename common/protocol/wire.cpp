@@ -13,13 +13,13 @@ static_assert(std::numeric_limits<double>::is_iec559 && sizeof(double) == 8, "do
 
 namespace {
 
-constexpr std::array<std::pair<const char*, Family>, 24> kTypes{{
+constexpr std::array<std::pair<const char*, Family>, 25> kTypes{{
     {kWelcome, Family::command},       {kAssign, Family::command},         {kBelowFrame, Family::command},
     {kCancelTask, Family::command},    {kHeartbeat, Family::command},      {kRefused, Family::command},
     {kHello, Family::report},          {kWorkerHeartbeat, Family::report}, {kFrame, Family::report},
     {kTaskDone, Family::report},       {kTaskFailed, Family::report},      {kHierarchyDone, Family::report},
     {kSubmit, Family::request},        {kRefine, Family::request},         {kStatus, Family::request},
-    {kFetch, Family::request},         {kCancelJob, Family::request},      {kWorkers, Family::request},
+    {kFetch, Family::request},         {kCancelJob, Family::request},      {kRequeue, Family::request},        {kWorkers, Family::request},
     {kSubmitted, Family::reply},       {kAccepted, Family::reply},         {kStatusReply, Family::reply},
     {kFetchReply, Family::reply},      {kWorkersReply, Family::reply},     {kError, Family::reply},
 }};

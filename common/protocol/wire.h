@@ -51,6 +51,7 @@ constexpr char kRefine[] = "refine";
 constexpr char kStatus[] = "status";
 constexpr char kFetch[] = "fetch";
 constexpr char kCancelJob[] = "cancel_job";
+constexpr char kRequeue[] = "requeue";
 constexpr char kWorkers[] = "workers";
 constexpr char kSubmitted[] = "submitted";
 constexpr char kAccepted[] = "accepted";

@@ -38,6 +38,7 @@
 #include "protocol/protocol.h"
 #include "store/frame_store.h"
 #include "support/intersection_checker.h"
+#include "support/farm.h"
 #include "support/process.h"
 #include "support/test_paths.h"
 
@@ -46,169 +47,22 @@ namespace {
 
 using namespace std::chrono_literals;
 using nlohmann::json;
-using Args = std::vector<std::string>;
+using test::Args;
+using test::Farm;
+using test::FarmTest;
+using test::fetch;
+using test::job_status;
+using test::kCommand;
+using test::kLongJob;
+using test::kShortJob;
+using test::parse_json;
+using test::scene_path;
+using test::submit;
+using test::wait_until_done;
+using test::same_bits;
+using test::expect_identical_frames;
 
-constexpr auto kCommand = 30s;    // any client command but a --wait
-constexpr auto kLongJob = 300s;   // a 200-frame job (about 25 s measured)
-constexpr auto kShortJob = 120s;  // a job of 20-110 frames (at most 16 s measured)
 constexpr int kFullFrames = 200;  // scenes/cube-trampoline.json's own count
-
-std::string scene_path(const std::string& name) { return test::source_dir() + "/scenes/" + name; }
-
-json parse_json(const test::RunResult& r) {
-  try {
-    return json::parse(r.out);
-  } catch (const json::exception& e) {
-    throw std::runtime_error(std::string("not JSON (") + e.what() + "): " + r.describe());
-  }
-}
-
-// One pd-scheduler on port-0 loopback endpoints in DIR/farm and `workers` pd-workers w1..wN, started
-// in the constructor, which returns once the scheduler lists every worker idle; stopped (workers
-// first) by stop() or the destructor.
-class Farm {
- public:
-  Farm(const std::string& dir, int workers) : dir_(dir), log_(dir + "/scheduler.log") {
-    const std::string out = dir + "/scheduler.out";
-    scheduler_.start({PD_SCHEDULER_BINARY, "--dir", dir + "/farm", "--workers-endpoint", "tcp://127.0.0.1:0",
-                      "--clients-endpoint", "tcp://127.0.0.1:0", "--heartbeat-ms", "1000"},
-                     {}, out, log_);
-    const auto line = test::read_first_line(out, 20s, &scheduler_);
-    if (!line) throw std::runtime_error("pd-scheduler printed no first line; its log:\n" + test::file_tail(log_));
-    const json listening = json::parse(*line);
-    if (listening.at("event") != "listening") throw std::runtime_error("first line is not 'listening': " + *line);
-    if (listening.at("dir") != dir + "/farm") throw std::runtime_error("first line names another dir: " + *line);
-    workers_endpoint_ = listening.at("workers").get<std::string>();
-    clients_ = listening.at("clients").get<std::string>();
-    for (int k = 1; k <= workers; ++k) {
-      const std::string name = "w" + std::to_string(k);
-      worker_logs_.push_back(dir + "/worker-" + name + ".log");
-      workers_.emplace_back();
-      // --scratch inside the test's folder: the default /tmp/pd-worker-<pid> outlives the worker.
-      workers_.back().start(
-          {PD_WORKER_BINARY, "--connect", workers_endpoint_, "--name", name, "--scratch", dir + "/scratch-" + name}, {},
-          worker_logs_.back(), worker_logs_.back());
-    }
-    wait_for_idle_workers(workers, 20s);
-  }
-  ~Farm() { stop(); }
-  Farm(const Farm&) = delete;
-  Farm& operator=(const Farm&) = delete;
-
-  const std::string& dir() const { return dir_; }
-  const std::string& clients() const { return clients_; }
-  const std::string& workers_endpoint() const { return workers_endpoint_; }
-
-  // pd ARGS --farm <clients>, bounded by `timeout`.
-  test::RunResult pd(Args args, std::chrono::milliseconds timeout = kCommand) const {
-    args.insert(args.begin(), PD_BINARY);
-    args.insert(args.end(), {"--farm", clients_});
-    return test::run(args, timeout);
-  }
-
-  // Kills worker w<k> (1-based) with SIGKILL, as a machine that dies does, and reaps it.
-  void kill_worker(int k) {
-    test::Process& w = workers_.at(static_cast<std::size_t>(k - 1));
-    ::kill(w.pid(), SIGKILL);
-    w.wait_for_exit(10s);
-  }
-
-  // The scheduler's exit code (it must exit 0 on SIGTERM); workers are stopped first.
-  int stop() {
-    for (test::Process& w : workers_) w.terminate(5s);
-    return scheduler_.terminate(10s);
-  }
-
-  // The scheduler's log without its frame_stored lines (one per frame), and the workers' logs.
-  std::string log_tails() const {
-    std::string events, line;
-    std::ifstream in(log_);
-    int frames = 0;
-    while (std::getline(in, line))
-      if (line.find("\"frame_stored\"") == std::string::npos) events += line + "\n";
-      else ++frames;
-    const std::string tail = events.size() > 6000 ? "...\n" + events.substr(events.size() - 6000) : events;
-    std::string s = "---- " + log_ + " (" + std::to_string(frames) + " frame_stored lines left out)\n" + tail;
-    for (const std::string& w : worker_logs_) s += "---- " + w + " (tail)\n" + test::file_tail(w, 15);
-    return s;
-  }
-
- private:
-  void wait_for_idle_workers(int n, std::chrono::milliseconds timeout) const {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    std::string last;
-    for (;;) {
-      const test::RunResult r = pd({"workers", "--json"});
-      last = r.describe();
-      if (r.exit_code == 0) {
-        const json j = parse_json(r);
-        const auto idle = std::count_if(j.at("workers").begin(), j.at("workers").end(),
-                                        [](const json& w) { return w.at("state") == "idle"; });
-        if (idle == n) return;
-      }
-      if (std::chrono::steady_clock::now() >= deadline)
-        throw std::runtime_error("the workers did not all register as idle in time; last: " + last);
-      std::this_thread::sleep_for(100ms);
-    }
-  }
-
-  std::string dir_, log_, workers_endpoint_, clients_;
-  test::Process scheduler_;
-  std::vector<test::Process> workers_;
-  std::vector<std::string> worker_logs_;
-};
-
-class FarmTest : public ::testing::Test {
- protected:
-  Farm& start_farm(int workers, const std::string& tag) {
-    dirs_.push_back(test::scratch_dir(tag));
-    farms_.push_back(std::make_unique<Farm>(dirs_.back(), workers));
-    return *farms_.back();
-  }
-
-  void TearDown() override {
-    for (auto& farm : farms_) {
-      EXPECT_EQ(farm->stop(), 0) << "pd-scheduler did not exit 0 on SIGTERM";
-      if (HasFailure()) std::printf("%s", farm->log_tails().c_str());
-    }
-    farms_.clear();
-    // Kept for a look when the test failed; the frame files are megabytes otherwise left in /tmp.
-    for (const std::string& d : dirs_) {
-      if (HasFailure()) std::printf("kept %s\n", d.c_str());
-      else std::filesystem::remove_all(d);
-    }
-  }
-
-  std::vector<std::string> dirs_;
-  std::vector<std::unique_ptr<Farm>> farms_;
-};
-
-int64_t submit(const Farm& farm, Args args) {
-  args.insert(args.begin(), "submit");
-  args.push_back("--json");
-  const test::RunResult r = farm.pd(args);
-  if (r.exit_code != 0) throw std::runtime_error("pd submit failed: " + r.describe());
-  return parse_json(r).at("job").get<int64_t>();
-}
-
-// `pd status JOB --json`: the job's object.
-json job_status(const Farm& farm, int64_t job) {
-  const test::RunResult r = farm.pd({"status", std::to_string(job), "--json"});
-  if (r.exit_code != 0) throw std::runtime_error("pd status failed: " + r.describe());
-  const json jobs = parse_json(r).at("jobs");
-  if (jobs.size() != 1 || jobs[0].at("id") != job) throw std::runtime_error("status lists other jobs: " + r.out);
-  return jobs[0];
-}
-
-void wait_until_done(const Farm& farm, int64_t job, std::chrono::milliseconds timeout) {
-  const test::RunResult r = farm.pd({"status", std::to_string(job), "--wait", "--interval", "0.2"}, timeout);
-  if (r.exit_code != 0) throw std::runtime_error("job " + std::to_string(job) + " did not end done: " + r.describe());
-}
-
-void fetch(const Farm& farm, int64_t job, const std::string& out) {
-  const test::RunResult r = farm.pd({"fetch", std::to_string(job), "--out", out}, 60s);
-  if (r.exit_code != 0) throw std::runtime_error("pd fetch failed: " + r.describe());
-}
 
 // `pd simulate SCENE --mode progressive --frames N --out OUT`, started now to run beside the farm.
 test::Process start_reference(const std::string& scene, const std::string& out, int frames) {
@@ -224,23 +78,6 @@ void finish_reference(test::Process& p, const std::string& out, std::chrono::mil
   if (code != 0)
     throw std::runtime_error("pd simulate " + (code ? "exited " + std::to_string(*code) : "timed out") + ":\n" +
                              test::file_tail(out + ".log"));
-}
-
-bool same_bits(const Positions& a, const Positions& b) {
-  return a.rows() == b.rows() && std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0;
-}
-
-// Frames first..last of `level` equal bit for bit in both files (and the level's mesh too).
-void expect_identical_frames(const FrameReader& a, const FrameReader& b, int level, int first, int last) {
-  ASSERT_EQ(a.num_vertices(level), b.num_vertices(level)) << "level " << level;
-  ASSERT_EQ(a.faces(level), b.faces(level)) << "level " << level;
-  int differing = 0;
-  for (int t = first; t <= last; ++t) {
-    if (same_bits(a.frame(level, t), b.frame(level, t))) continue;
-    if (++differing <= 3) ADD_FAILURE() << a.path() << " and " << b.path() << ": level " << level << " frame " << t
-                                        << " differs";
-  }
-  EXPECT_EQ(differing, 0) << "level " << level << ": frames " << first << ".." << last << " differing";
 }
 
 // Largest vertex distance (m) between the files over frames first..last of `level`.

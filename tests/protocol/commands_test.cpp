@@ -45,6 +45,7 @@ AssignTask full_assign() {
   m.level = 2;
   m.first = 10;
   m.last = 20;
+  m.start = 14;
   m.frames = 40;
   m.levels = 3;
   m.hessian = "galerkin";
@@ -75,6 +76,7 @@ void expect_same(const AssignTask& a, const AssignTask& b) {
   EXPECT_EQ(a.level, b.level);
   EXPECT_EQ(a.first, b.first);
   EXPECT_EQ(a.last, b.last);
+  EXPECT_EQ(a.start, b.start);
   EXPECT_EQ(a.frames, b.frames);
   EXPECT_EQ(a.levels, b.levels);
   EXPECT_EQ(a.hessian, b.hessian);
@@ -158,7 +160,8 @@ TEST(ProtocolCommands, BelowFrameCancelHeartbeatRefusedRoundTrip) {
   EXPECT_EQ(c.attempt, 8);
   EXPECT_EQ(c.task, 9);
   EXPECT_EQ(c.reason, "job 3 cancelled");
-  round_trip(SchedulerHeartbeat{});
+  EXPECT_EQ(round_trip(SchedulerHeartbeat{}).pong, 0);
+  EXPECT_EQ(round_trip(SchedulerHeartbeat{(int64_t{1} << 50) + 7}).pong, (int64_t{1} << 50) + 7);
   EXPECT_EQ(encode(SchedulerHeartbeat{}).size(), 1u);
   EXPECT_EQ(round_trip(Refused{"stale attempt 4"}).reason, "stale attempt 4");
 }
@@ -185,10 +188,11 @@ TEST(ProtocolCommands, MessagesOfOtherFamiliesAreRefused) {
 
 TEST(ProtocolCommands, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(encode(Welcome{1, 2})), 2);
-  EXPECT_EQ(check_every_field_required(encode(plain_assign())), 12);
+  EXPECT_EQ(check_every_field_required(encode(plain_assign())), 13);
   EXPECT_EQ(check_every_field_required(encode(BelowFrame{1, 2, 3, 4, {1, 2, 3}})), 5);
   EXPECT_EQ(check_every_field_required(encode(CancelTask{1, 2, "r"})), 3);
   EXPECT_EQ(check_every_field_required(encode(Refused{"r"})), 1);
+  EXPECT_EQ(check_every_field_required(encode(SchedulerHeartbeat{5})), 1);
   // The scene's own fields, and a file's.
   const Parts parts = encode(plain_assign());
   int checked = 0;
@@ -209,10 +213,11 @@ TEST(ProtocolCommands, EveryRequiredFieldIsCheckedByName) {
 
 TEST(ProtocolCommands, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(encode(Welcome{1, 2})), 2);
-  EXPECT_EQ(check_every_field_typed(encode(full_assign())), 15);  // the optional ones too
+  EXPECT_EQ(check_every_field_typed(encode(full_assign())), 16);  // the optional ones too
   EXPECT_EQ(check_every_field_typed(encode(BelowFrame{1, 2, 3, 4, {1, 2, 3}})), 5);
   EXPECT_EQ(check_every_field_typed(encode(CancelTask{1, 2, "r"})), 3);
   EXPECT_EQ(check_every_field_typed(encode(Refused{"r"})), 1);
+  EXPECT_EQ(check_every_field_typed(encode(SchedulerHeartbeat{5})), 1);
 }
 
 TEST(ProtocolCommands, OutOfRangeValuesAreRefusedByName) {
@@ -247,6 +252,13 @@ TEST(ProtocolCommands, WrongPartCountsAreRefused) {
   Parts heartbeat = encode(SchedulerHeartbeat{});
   heartbeat.push_back("");
   EXPECT_EQ(error_of(heartbeat), "heartbeat: 2 parts, expected 1");
+}
+
+TEST(ProtocolCommands, AnAttemptStartOutsideItsTaskIsRefused) {
+  const Parts parts = encode(full_assign());  // frames (10, 20]
+  EXPECT_EQ(error_of(with_field(parts, "start", 9)), "assign: field 'start': 9 outside [first, last) = [10, 20)");
+  EXPECT_EQ(error_of(with_field(parts, "start", 20)), "assign: field 'start': 20 outside [first, last) = [10, 20)");
+  EXPECT_EQ(std::get<AssignTask>(decode_command(with_field(parts, "start", 19))).start, 19);
 }
 
 TEST(ProtocolCommands, WrongPartSizesAreRefused) {

@@ -57,6 +57,9 @@ TEST(ProtocolReports, HelloAndHeartbeatRoundTrip) {
   EXPECT_EQ(h.host, "node-07");
   EXPECT_EQ(round_trip(WorkerHeartbeat{99}).attempt, 99);
   EXPECT_EQ(round_trip(WorkerHeartbeat{0}).attempt, 0);
+  const WorkerHeartbeat ping = round_trip(WorkerHeartbeat{4, 123456789});
+  EXPECT_EQ(ping.attempt, 4);
+  EXPECT_EQ(ping.ping, 123456789);
 }
 
 TEST(ProtocolReports, FrameReportRoundTripsBitForBitKeepingStatOrder) {
@@ -123,7 +126,7 @@ TEST(ProtocolReports, MessagesOfOtherFamiliesAreRefused) {
 
 TEST(ProtocolReports, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(encode(Hello{"w", "1", 2, "h"})), 4);
-  EXPECT_EQ(check_every_field_required(encode(WorkerHeartbeat{3})), 1);
+  EXPECT_EQ(check_every_field_required(encode(WorkerHeartbeat{3})), 2);
   EXPECT_EQ(check_every_field_required(encode(sample_frame())), 7);
   EXPECT_EQ(check_every_field_required(encode(TaskDone{1, 2, 3, true, 4.0})), 5);
   EXPECT_EQ(check_every_field_required(encode(TaskFailed{1, 2, "m"})), 3);
@@ -132,7 +135,7 @@ TEST(ProtocolReports, EveryRequiredFieldIsCheckedByName) {
 
 TEST(ProtocolReports, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(encode(Hello{"w", "1", 2, "h"})), 4);
-  EXPECT_EQ(check_every_field_typed(encode(WorkerHeartbeat{3})), 1);
+  EXPECT_EQ(check_every_field_typed(encode(WorkerHeartbeat{3})), 2);
   EXPECT_EQ(check_every_field_typed(encode(sample_frame())), 7);
   EXPECT_EQ(check_every_field_typed(encode(TaskDone{1, 2, 3, true, 4.0})), 5);
   EXPECT_EQ(check_every_field_typed(encode(TaskFailed{1, 2, "m"})), 3);

@@ -64,10 +64,12 @@ TEST(ProtocolRequests, JobRequestsRoundTrip) {
   EXPECT_EQ(round_trip(StatusRequest{(int64_t{1} << 40) + 3}).job, (int64_t{1} << 40) + 3);
   EXPECT_EQ(round_trip(FetchRequest{5}).job, 5);
   EXPECT_EQ(round_trip(CancelJob{6}).job, 6);
+  EXPECT_EQ(round_trip(RequeueJob{7}).job, 7);
   round_trip(WorkersRequest{});
   // status, fetch and cancel_job share a shape but keep their own types.
   EXPECT_TRUE(std::holds_alternative<FetchRequest>(decode_request(encode(FetchRequest{5}))));
   EXPECT_TRUE(std::holds_alternative<CancelJob>(decode_request(encode(CancelJob{5}))));
+  EXPECT_TRUE(std::holds_alternative<RequeueJob>(decode_request(encode(RequeueJob{5}))));
 }
 
 TEST(ProtocolRequests, MessagesOfOtherFamiliesAreRefused) {
@@ -82,6 +84,7 @@ TEST(ProtocolRequests, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(encode(StatusRequest{1})), 1);
   EXPECT_EQ(check_every_field_required(encode(FetchRequest{1})), 1);
   EXPECT_EQ(check_every_field_required(encode(CancelJob{1})), 1);
+  EXPECT_EQ(check_every_field_required(encode(RequeueJob{1})), 1);
   const Parts parts = encode(sample_submit());
   int checked = 0;
   for (const char* name : {"name", "text", "files"}) {
@@ -105,6 +108,7 @@ TEST(ProtocolRequests, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(encode(StatusRequest{1})), 1);
   EXPECT_EQ(check_every_field_typed(encode(FetchRequest{1})), 1);
   EXPECT_EQ(check_every_field_typed(encode(CancelJob{1})), 1);
+  EXPECT_EQ(check_every_field_typed(encode(RequeueJob{1})), 1);
   const Parts parts = encode(sample_submit());
   Json h = header(parts);
   h["scene"]["files"] = Json::array({"meshes/cube.obj"});

@@ -121,7 +121,8 @@ TEST(ProtocolWire, MessageRefusesBadEnvelopesNamingTheProblem) {
   EXPECT_TRUE(has(open({"[1, 2]"}), "message: part 0 is JSON but not an object"));
   EXPECT_EQ(open({R"({"type": "frame"})"}), "frame: field 'v': missing");
   EXPECT_EQ(open({R"({"v": "1", "type": "frame"})"}), "frame: field 'v': expected an integer, got string");
-  EXPECT_EQ(open(header_only("frame", 2)), "frame: protocol version 2, this program speaks 1");
+  EXPECT_EQ(open(header_only("frame", kProtocolVersion + 1)),
+            "frame: protocol version " + std::to_string(kProtocolVersion + 1) + ", this program speaks " + std::to_string(kProtocolVersion));
   EXPECT_EQ(open({R"({"v": 1})"}), "message: field 'type': missing");
   EXPECT_EQ(open({R"({"v": 1, "type": 4})"}), "message: field 'type': expected a string, got number 4");
   EXPECT_EQ(open(header_only("frame")), "(no ProtocolError thrown)");
@@ -131,8 +132,9 @@ TEST(ProtocolWire, MessageRefusesBadEnvelopesNamingTheProblem) {
   EXPECT_EQ(garbage.find_first_of("\xff\xfe\x01"), std::string::npos) << garbage;
   EXPECT_NO_THROW(encode(Refused{garbage}));
   // An absurdly long type name is shortened in messages.
-  EXPECT_EQ(open(header_only(std::string(1000, 't'), 2)),
-            std::string(64, 't') + "...: protocol version 2, this program speaks 1");
+  EXPECT_EQ(open(header_only(std::string(1000, 't'), kProtocolVersion + 1)),
+            std::string(64, 't') + "...: protocol version " + std::to_string(kProtocolVersion + 1) +
+                ", this program speaks " + std::to_string(kProtocolVersion));
 }
 
 TEST(ProtocolWire, TotalSizeIsCheckedAgainstTheLimitWhenEncodingAndDecoding) {
@@ -164,7 +166,7 @@ TEST(ProtocolWire, PartCountsAndSizesAreCheckedWithExactMessages) {
 
 TEST(ProtocolWire, VertexAndByteCountsAreBoundedBeforeAnyAllocation) {
   auto count_error = [](const Json& n) {
-    const Parts p = {Json{{"v", 1}, {"type", "frame"}, {"vertices", n}}.dump()};
+    const Parts p = {Json{{"v", kProtocolVersion}, {"type", "frame"}, {"vertices", n}}.dump()};
     return error_of([&] { wire::Message(p).vertex_count("vertices"); });
   };
   EXPECT_EQ(count_error(-1), "frame: field 'vertices': -1 is negative");
@@ -172,7 +174,7 @@ TEST(ProtocolWire, VertexAndByteCountsAreBoundedBeforeAnyAllocation) {
                   "frame: field 'vertices': " + std::to_string(wire::kMaxVertices + 1) + " vertices cannot fit"));
   EXPECT_TRUE(has(count_error(int64_t{1} << 62), "cannot fit in a message"));
   EXPECT_EQ(count_error(wire::kMaxVertices), "(no ProtocolError thrown)");
-  const Parts p = {Json{{"v", 1}, {"type", "fetch_reply"}, {"bytes", kMaxMessageBytes + 1}}.dump()};
+  const Parts p = {Json{{"v", kProtocolVersion}, {"type", "fetch_reply"}, {"bytes", kMaxMessageBytes + 1}}.dump()};
   EXPECT_TRUE(has(error_of([&] { wire::Message(p).byte_count("bytes"); }),
                   "fetch_reply: field 'bytes': 1073741825 bytes is over the message limit"));
 }
@@ -236,8 +238,9 @@ TEST(ProtocolWire, EveryDecoderRefusesMalformedEnvelopes) {
       {{"[]"}, "message: part 0 is JSON but not an object"},
       {{R"({"type": "welcome"})"}, "welcome: field 'v': missing"},
       {{R"({"v": 1.0, "type": "welcome"})"}, "welcome: field 'v': expected an integer"},
-      {header_only("welcome", 2), "welcome: protocol version 2, this program speaks 1"},
-      {header_only("welcome", 0), "welcome: protocol version 0, this program speaks 1"},
+      {header_only("welcome", kProtocolVersion + 1),
+       "welcome: protocol version " + std::to_string(kProtocolVersion + 1) + ", this program speaks " + std::to_string(kProtocolVersion)},
+      {header_only("welcome", 0), "welcome: protocol version 0, this program speaks " + std::to_string(kProtocolVersion)},
       {{R"({"v": 1})"}, "message: field 'type': missing"},
       {{R"({"v": 1, "type": null})"}, "message: field 'type': expected a string, got null"},
       {header_only("teleport"), "teleport: unknown message type"},
@@ -293,6 +296,7 @@ std::vector<Parts> samples() {
           encode(StatusRequest{}),
           encode(FetchRequest{}),
           encode(CancelJob{}),
+          encode(RequeueJob{}),
           encode(WorkersRequest{}),
           encode(Submitted{}),
           encode(Accepted{}),
