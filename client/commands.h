@@ -83,7 +83,7 @@ struct FetchArgs {
 };
 int fetch(const FetchArgs& args);
 
-// pd cancel JOB and pd refine JOB [--subsets K].
+// pd cancel JOB, pd refine JOB [--subsets K] and pd requeue JOB.
 struct JobActionArgs {
   std::string farm;
   int64_t job = 0;
@@ -92,6 +92,7 @@ struct JobActionArgs {
 };
 int cancel(const JobActionArgs& args);
 int refine(const JobActionArgs& args);
+int requeue(const JobActionArgs& args);
 
 struct WorkersArgs {
   std::string farm;

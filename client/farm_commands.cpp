@@ -1,4 +1,4 @@
-// The farm's client commands: pd submit, status, fetch, cancel, refine, workers. Each sends requests
+// The farm's client commands: pd submit, status, fetch, cancel, refine, requeue, workers. Each sends requests
 // to the scheduler's client endpoint (farm_client.h) and prints the replies; nothing runs here.
 #include <unistd.h>
 
@@ -168,6 +168,14 @@ int refine(const JobActionArgs& args) {
   if (args.json) print_json({{"job", accepted.job}, {"message", accepted.message}});
   else std::printf("job %lld: %s\n", static_cast<long long>(accepted.job),
                    accepted.message.empty() ? "refinement levels added" : accepted.message.c_str());
+  return 0;
+}
+
+int requeue(const JobActionArgs& args) {
+  FarmClient client(farm_endpoint(args.farm));
+  const auto accepted = client.request_as<protocol::Accepted>(protocol::RequeueJob{args.job});
+  if (args.json) print_json({{"job", accepted.job}, {"message", accepted.message}});
+  else std::printf("job %lld: %s\n", static_cast<long long>(accepted.job), accepted.message.c_str());
   return 0;
 }
 

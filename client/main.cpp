@@ -19,11 +19,11 @@ struct FarmCommands {
   pd::cli::SubmitArgs sub;
   pd::cli::StatusArgs st;
   pd::cli::FetchArgs fe;
-  pd::cli::JobActionArgs ca, re;
+  pd::cli::JobActionArgs ca, re, rq;
   pd::cli::WorkersArgs wo;
   pd::cli::RunArgs ru;
   CLI::App *submit = nullptr, *status = nullptr, *fetch = nullptr, *cancel = nullptr, *refine = nullptr,
-           *workers = nullptr, *run = nullptr;
+           *requeue = nullptr, *workers = nullptr, *run = nullptr;
 
   // Runs the farm command that was given; -1 when the command given is not a farm command.
   int dispatch() const {
@@ -32,6 +32,7 @@ struct FarmCommands {
     if (*fetch) return pd::cli::fetch(fe);
     if (*cancel) return pd::cli::cancel(ca);
     if (*refine) return pd::cli::refine(re);
+    if (*requeue) return pd::cli::requeue(rq);
     if (*workers) return pd::cli::workers(wo);
     if (*run) return pd::cli::run(ru);
     return -1;
@@ -115,6 +116,11 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
   f.refine->add_option("--subsets", f.re.subsets, "Time subsets per refinement level")->check(at_least_one());
   f.refine->add_option("--farm", f.re.farm, farm_help);
   f.refine->add_flag("--json", f.re.json, "Print {\"job\", \"message\"}");
+
+  f.requeue = app.add_subcommand("requeue", "Retry a failed job: its failed and blocked tasks run again");
+  f.requeue->add_option("job", f.rq.job, job_help)->required()->check(at_least_one());
+  f.requeue->add_option("--farm", f.rq.farm, farm_help);
+  f.requeue->add_flag("--json", f.rq.json, "Print {\"job\", \"message\"}");
 
   f.workers = app.add_subcommand("workers", "The workers the scheduler knows, one line each");
   f.workers->add_option("--farm", f.wo.farm, farm_help);

@@ -200,7 +200,14 @@ protocol::Reply Scheduler::serve(protocol::CancelJob& m) {
 }
 
 protocol::Reply Scheduler::serve(protocol::RequeueJob& m) {
-  return error("requeue of job " + std::to_string(m.job) + ": not served by this scheduler yet");
+  const std::optional<JobRow> job = store_->find_job(m.job);
+  if (!job) return error("no job " + std::to_string(m.job));
+  if (job->state != protocol::JobState::failed)
+    return error("job " + std::to_string(m.job) + " is " + protocol::to_string(job->state) +
+                 "; only a failed job can be requeued");
+  const int tasks = store_->requeue_job(m.job);
+  event("job_requeued", m.job, 0, 0, std::to_string(tasks) + " failed or blocked tasks back to waiting");
+  return protocol::Accepted{m.job, "requeued " + std::to_string(tasks) + " tasks"};
 }
 
 protocol::Reply Scheduler::serve(protocol::WorkersRequest&) {

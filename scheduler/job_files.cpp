@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <set>
 
 #include "store/hierarchy_store.h"
 #include "util/input_error.h"
@@ -15,8 +16,39 @@ JobFiles::JobFiles(std::string jobs_dir) : dir_(std::move(jobs_dir)) { fs::creat
 
 std::string JobFiles::path_of(int64_t job) const { return dir_ + "/" + std::to_string(job) + ".h5"; }
 
+namespace {
+
+FrameStats as_frame_stats(const FrameData& d) {
+  FrameStats stats;
+  stats.scalars = d.stats;
+  if (!d.center_of_mass.empty())
+    stats.center_of_mass = Eigen::Map<const ObjectPoints>(d.center_of_mass.data(),
+                                                          static_cast<Eigen::Index>(d.center_of_mass.size() / 3), 3);
+  return stats;
+}
+
+void write_into(FrameWriter& w, int level, int t, const FrameData& d) {
+  w.write_frame(level, t,
+                Eigen::Map<const Positions>(d.positions.data(), static_cast<Eigen::Index>(d.positions.size() / 3), 3),
+                as_frame_stats(d));
+}
+
+}  // namespace
+
+void check_frame_stats(const std::vector<protocol::Stat>& stats) {
+  std::set<std::string> seen;
+  for (const auto& [name, value] : stats) {
+    if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "center_of_mass")
+      throw InputError("frame: stats: invalid statistic name '" + name + "'");
+    if (!seen.insert(name).second) throw InputError("frame: stats: statistic '" + name + "' appears twice");
+  }
+}
+
+void JobFiles::write_frame(JobFile& f, int level, int t, const FrameData& data) { write_into(*f.writer, level, t, data); }
+
 JobFile& JobFiles::create(int64_t job, const std::string& scene_text, int frames, int levels, const std::string& hash,
-                          const std::string& blob) {
+                          const std::string& blob, std::size_t count,
+                          const std::function<StoredFrame(std::size_t)>& frame) {
   JobFile f;
   f.path = path_of(job);
   f.hierarchy_path = dir_ + "/" + std::to_string(job) + ".hierarchy.h5";
@@ -34,16 +66,25 @@ JobFile& JobFiles::create(int64_t job, const std::string& scene_text, int frames
     throw InputError(f.hierarchy_path + ": the hierarchy has " + std::to_string(h->num_levels()) +
                      " levels, the job asks for " + std::to_string(levels));
   const std::vector<std::string> names = FrameReader(f.hierarchy_path).object_names(0);
-  f.writer = FrameWriter::create(f.path, scene_text, frames);
-  write_hierarchy(f.path, *h, names);
+  const std::string building = f.path + ".tmp";
+  files_.erase(job);  // closes the file a rebuild replaces
+  f.writer = FrameWriter::create(building, scene_text, frames);
+  write_hierarchy(building, *h, names);
   add_hierarchy_levels(*f.writer, *h, names);
+  for (std::size_t i = 0; i < count; ++i) {
+    const StoredFrame s = frame(i);
+    write_into(*f.writer, s.first.level, s.first.frame, s.second);
+  }
+  // The open writer follows the file (same inode) through the rename.
+  std::error_code ec;
+  fs::rename(building, f.path, ec);
+  if (ec) throw InputError(f.path + ": cannot replace the job file: " + ec.message());
   f.hierarchy_hash = hash;
   f.hierarchy_blob = blob;
   for (const SceneLevel& lv : h->levels) {
     f.vertices.push_back(static_cast<int>(lv.rest.V.rows()));
     f.objects.push_back(static_cast<int>(lv.vertex_offsets.size()) - 1);
   }
-  files_.erase(job);
   return files_.emplace(job, std::move(f)).first->second;
 }
 

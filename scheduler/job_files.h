@@ -3,9 +3,12 @@
 // same layout `pd simulate` writes), of which the scheduler is the only writer, and beside it
 // <job>.hierarchy.h5, the hierarchy as the hierarchy task built it (the bytes shipped to workers).
 //
-// Order of durability: a frame is written and flushed here before the task store records it
-// (scheduler.cpp), so a frame the store calls stored is always in the file.
+// Order of durability: the task store records a frame with its data first, then it is written and
+// flushed here (scheduler/worker_reports.cpp). A job file is (re)built whole in <job>.h5.tmp and
+// renamed over <job>.h5, so a reader never sees a half-built file; a scheduler killed while writing
+// a frame leaves a file that the next scheduler rebuilds from the store (Scheduler::recover).
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -13,6 +16,7 @@
 #include <vector>
 
 #include "store/frame_store.h"
+#include "store/task_store.h"
 
 namespace pd::scheduler {
 
@@ -26,6 +30,13 @@ struct JobFile {
   std::optional<FrameWriter> writer;
 };
 
+// A frame the task store holds, to write into a job file being built.
+using StoredFrame = std::pair<FrameKey, FrameData>;
+
+// InputError when a frame's statistics cannot go into a job file (an empty name, one with '/',
+// "center_of_mass", or a name twice): checked before the store records the frame.
+void check_frame_stats(const std::vector<protocol::Stat>& stats);
+
 class JobFiles {
  public:
   explicit JobFiles(std::string jobs_dir);
@@ -33,9 +44,14 @@ class JobFiles {
   // Creates the job file from a hierarchy task's result: writes the blob to <job>.hierarchy.h5,
   // reads it back (which checks every operator; InputError when the blob is not a hierarchy of
   // `levels` levels with hash `hash`), then creates <job>.h5 with the scene text, the hierarchy and
-  // every level's (empty) frame datasets for frames 0..frames.
+  // every level's frame datasets for frames 0..frames, holding the `count` frames frame(0) ..
+  // frame(count - 1) (a rebuild from the store; none for a new job).
   JobFile& create(int64_t job, const std::string& scene_text, int frames, int levels, const std::string& hash,
-                  const std::string& blob);
+                  const std::string& blob, std::size_t count = 0,
+                  const std::function<StoredFrame(std::size_t)>& frame = {});
+
+  // Writes and flushes a frame (InputError for a level or frame out of range or a bad statistic).
+  void write_frame(JobFile& f, int level, int t, const FrameData& data);
 
   // The job's file, or nullptr while its hierarchy is not built.
   JobFile* find(int64_t job);

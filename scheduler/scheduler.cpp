@@ -45,15 +45,38 @@ Scheduler::Scheduler(const SchedulerOptions& options)
   }
   workers_.bind(options.workers_endpoint);
   clients_.bind(options.clients_endpoint);
-  // Jobs left unfinished by an earlier scheduler process: their job files cannot be reopened for
-  // writing yet (resuming them is the fault-tolerance work), so they end failed with the reason
-  // rather than waiting forever.
-  for (const JobRow& job : store_->jobs()) {
+  recover();
+}
+
+// A scheduler starting on a directory an earlier one used (it was stopped, or killed): attempts that
+// were running end (their workers say hello again and their tasks continue from their stored
+// frames), and every job file is rebuilt from the store, which holds every stored frame's data: a
+// file the earlier process left half-written is replaced whole.
+void Scheduler::recover() {
+  for (const TaskRow& t : store_->recover_after_restart())
+    event("task_released", t.job, t.id, 0, "attempt " + std::to_string(t.attempt) + " ended with the earlier scheduler");
+  for (const JobRow& job : store_->jobs())
+    if (!job.hierarchy_hash.empty()) rebuild_job_file(job);
+}
+
+bool Scheduler::rebuild_job_file(const JobRow& job) {
+  const auto start = Clock::now();
+  try {
+    const std::vector<FrameKey> keys = store_->frame_keys(job.id);
+    files_.create(job.id, job.spec.scene.text, job.spec.frames, job.spec.levels, job.hierarchy_hash,
+                  store_->hierarchy_blob(job.id), keys.size(),
+                  [&](std::size_t i) { return StoredFrame{keys[i], *store_->frame_data(job.id, keys[i])}; });
+    event("job_file_rebuilt", job.id, 0, 0,
+          std::to_string(keys.size()) + " frames from the store in " +
+              std::to_string(std::chrono::duration<double>(Clock::now() - start).count()) + " s");
+    return true;
+  } catch (const std::exception& e) {
+    event("job_file_error", job.id, 0, 0, e.what());
     if (job.state == protocol::JobState::queued || job.state == protocol::JobState::running) {
-      store_->set_job_state(job.id, protocol::JobState::failed,
-                            "the scheduler restarted; resuming a job after a restart is not supported yet");
-      event("job_failed", job.id, 0, 0, "unfinished at scheduler start");
+      store_->set_job_state(job.id, protocol::JobState::failed, std::string("the job file cannot be rebuilt: ") + e.what());
+      cancel_attempts_of_job(job.id, "job failed");
     }
+    return false;
   }
 }
 
@@ -123,10 +146,13 @@ void Scheduler::send_worker(const std::string& identity, const protocol::Parts& 
 }
 
 void Scheduler::dispatch() {
+  if (!store_->has_ready_task()) return;
   for (auto& [identity, s] : sessions_) {
     if (s.attempt != 0 || s.draining) continue;
+    // Claims are per worker (a task is not given to a worker that failed it, nor a job's tasks to a
+    // worker blocklisted for it): nothing for this one may still leave something for the next.
     std::optional<Claim> claim = store_->claim_next(s.worker);
-    if (!claim) return;  // nothing ready for anyone
+    if (!claim) continue;
     if (!assign(identity, s, *claim)) continue;
   }
 }
@@ -156,11 +182,18 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
     }
     a.hierarchy_hash = f->hierarchy_hash;
     if (!s.hierarchies.count(f->hierarchy_hash)) a.hierarchy_blob = f->hierarchy_blob;
-    // The preview continues horizontally from its own frames a-1 and a (and their barrier stiffness).
-    if (t.level == 0 && t.first > 0) {
-      a.own_before = as_vector(f->writer->read_frame(0, t.first - 1));
-      a.own_start = as_vector(f->writer->read_frame(0, t.first));
-      a.own_kappa = store_->frame_kappa(t.job, {0, t.first});
+    a.start = continuation_start(t);
+    if (a.start >= t.last) {  // every frame is stored: the attempt that solved them died before saying done
+      store_->finish_task(t.id);
+      event("task_done", t.job, t.id, s.worker, "every frame was stored already");
+      return false;
+    }
+    // Continuing horizontally from its own frames start-1 and start (and their barrier stiffness):
+    // the preview after its first chunk, and any task whose earlier attempt stored some frames.
+    if (a.start > t.first || (t.level == 0 && t.first > 0)) {
+      a.own_before = as_vector(f->writer->read_frame(t.level, a.start - 1));
+      a.own_start = as_vector(f->writer->read_frame(t.level, a.start));
+      a.own_kappa = store_->frame_kappa(t.job, {t.level, a.start});
     }
   }
   send_worker(identity, protocol::encode(a));
@@ -169,13 +202,55 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
   s.task = t.id;
   s.job = t.job;
   s.fed.clear();
-  s.progress = t.first;
+  s.progress = a.start;
   event("task_assigned", t.job, t.id, s.worker,
-        "attempt " + std::to_string(claim.attempt) + ": " + protocol::to_string(t.kind) + " level " +
-            std::to_string(t.level) + " frames (" + std::to_string(t.first) + ", " + std::to_string(t.last) + "] to " +
-            s.name);
+        "attempt " + std::to_string(claim.attempt) + ": " +
+            (t.kind == protocol::TaskKind::hierarchy ? std::string("hierarchy") : "level " + std::to_string(t.level)) +
+            " frames (" + std::to_string(t.first) + ", " + std::to_string(t.last) + "] to " +
+            s.name + (a.start > t.first ? ", continuing from frame " + std::to_string(a.start) : ""));
   if (t.kind == protocol::TaskKind::level && t.level >= 1) feed_stored_frames(identity, s, t);
   return true;
+}
+
+// Where a new attempt of a level task starts: from the last of the task's frames stored without a gap
+// (as the task solved them, so it repeats the uninterrupted run bit for bit), when that frame and the
+// one before it are both the task's own or its predecessor's; else from the task's first frame. A
+// task that starts vertically (level >= 1, first > 0) begins from an upsampled frame `first` that is
+// not stored, so it continues only from first + 2 on.
+int Scheduler::continuation_start(const TaskRow& t) const {
+  const std::optional<farm::FrameRange> own = farm::produced_frames(as_new_task(t));
+  if (!own) return t.first;
+  int last_stored = -1;
+  for (int frame : store_->stored_frames(t.job, own->level, own->first, own->last)) {
+    if (frame != (last_stored < 0 ? own->first : last_stored + 1)) break;
+    last_stored = frame;
+  }
+  const int earliest = t.level >= 1 && t.first > 0 ? t.first + 2 : t.first + 1;
+  return last_stored >= earliest ? last_stored : t.first;
+}
+
+void Scheduler::attempt_failed(Session& s, const TaskRow& t, const std::string& message) {
+  const int64_t attempt = s.attempt;
+  end_attempt_of(s);
+  const FailOutcome o = store_->fail_attempt(t.id, attempt, message);
+  event("attempt_failed", t.job, t.id, s.worker, "attempt " + std::to_string(attempt) + " on " + s.name + ": " + message);
+  if (o.worker_blocklisted)
+    event("worker_blocklisted", t.job, 0, s.worker,
+          s.name + " failed " + std::to_string(kBlocklistFailures) + " tasks of the job and takes none of its tasks");
+  if (!o.task_failed) {
+    // Retried on another worker; when no connected worker may take it, it fails now instead of
+    // waiting for a worker that may never come (OpenCue #1081's dependents waited for ever).
+    for (const auto& [identity, other] : sessions_)
+      if (store_->may_run(t.id, other.worker)) {
+        event("task_retry", t.job, t.id, 0, "failed on " + std::to_string(o.workers_failed) + " worker(s)");
+        return;
+      }
+    store_->fail_task(t.id, message + " (failed on " + std::to_string(o.workers_failed) +
+                                " worker(s); no other connected worker may run it)");
+  }
+  event("task_failed", t.job, t.id, s.worker, message);
+  event("job_failed", t.job, 0, 0, store_->job(t.job).reason);
+  cancel_attempts_of_job(t.job, "job failed");
 }
 
 // Sends the running attempt every stored frame of the level below it will ask for.

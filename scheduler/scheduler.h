@@ -6,7 +6,8 @@
 // silent (zguide's Paranoid Pirate: kLiveness missed heartbeats).
 //
 // In memory only, and rebuilt from the messages that follow a restart: the worker sessions (which
-// socket identity is which worker, what each was sent). Everything else lives in SQLite.
+// socket identity is which worker, what each was sent). Everything else lives in SQLite, frames
+// included; the job files are rebuilt from it at start (recover()).
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -86,6 +87,12 @@ class Scheduler {
   protocol::JobStatus job_status(const JobRow& job);
 
   // scheduler.cpp
+  void recover();
+  // Builds the job's file anew from the store; false (logged, an unfinished job failed) when it cannot.
+  bool rebuild_job_file(const JobRow& job);
+  int continuation_start(const TaskRow& t) const;
+  // The running attempt of s on task t failed: retried elsewhere or failed for good (store rules).
+  void attempt_failed(Session& s, const TaskRow& t, const std::string& message);
   void turn();  // one loop turn: receive, dispatch, preempt, heartbeats
   void dispatch();
   bool assign(const std::string& identity, Session& s, const Claim& claim);

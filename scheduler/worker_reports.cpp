@@ -1,6 +1,7 @@
 // pd-scheduler: what it does with each worker report (protocol/protocol.h, "Reports").
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "farm/messaging.h"
 #include "farm/task_graph.h"
@@ -57,6 +58,13 @@ void Scheduler::on_report(const std::string& identity, protocol::Hello& m) {
   if (sessions_.count(identity)) lose(identity, "said hello again");
   Session s;
   s.worker = store_->add_worker(m.name, m.host, m.version, m.cores);
+  // The same worker (by name) on a new connection: it restarted, or reconnected before its old
+  // session timed out. The old session's attempt is lost.
+  for (const auto& [other, o] : sessions_) {
+    if (o.worker != s.worker) continue;
+    lose(other, "connected again as " + m.name);
+    break;
+  }
   s.name = m.name;
   s.last_heard = s.last_sent = Clock::now();
   sessions_[identity] = s;
@@ -75,6 +83,17 @@ void Scheduler::on_report(const std::string& identity, protocol::WorkerHeartbeat
     end_attempt_of(s);
     s.draining = false;
     store_->set_worker_state(s.worker, "idle");
+  }
+  if (s.attempt == 0 && m.attempt != 0) {
+    // It runs an attempt this scheduler never gave it (it started before a scheduler restart): that
+    // attempt is stopped, and the worker takes nothing until a heartbeat says it is free.
+    protocol::CancelTask c;
+    c.attempt = m.attempt;
+    c.reason = "unknown attempt (the scheduler restarted); its task continues from its stored frames";
+    send_worker(identity, protocol::encode(c));
+    event("attempt_unknown", 0, 0, s.worker, "attempt " + std::to_string(m.attempt) + " cancelled");
+    s.attempt = m.attempt;
+    s.draining = true;
   }
   store_->touch_worker(s.worker);
   if (m.ping != 0) send_worker(identity, protocol::encode(protocol::SchedulerHeartbeat{m.ping}));
@@ -118,33 +137,45 @@ void Scheduler::on_report(const std::string& identity, protocol::FrameReport& m)
   }
   for (double x : m.positions) {
     if (!std::isfinite(x)) {
-      store_->fail_task(t.id, "frame " + std::to_string(m.frame) + " of level " + std::to_string(m.level) +
-                                  " is not finite (the solver diverged)");
-      event("task_failed", t.job, t.id, s->worker, "non-finite frame " + std::to_string(m.frame));
-      end_attempt_of(*s);
-      cancel_attempts_of_job(t.job, "job failed");
+      attempt_failed(*s, t, "frame " + std::to_string(m.frame) + " of level " + std::to_string(m.level) +
+                                " is not finite (the solver diverged)");
       return;
     }
   }
-  FrameStats stats;
-  stats.scalars = m.stats;
-  if (!m.center_of_mass.empty())
-    stats.center_of_mass = Eigen::Map<const ObjectPoints>(m.center_of_mass.data(),
-                                                          static_cast<Eigen::Index>(m.center_of_mass.size() / 3), 3);
+  FrameData data;
+  data.positions = std::move(m.positions);
+  data.stats = std::move(m.stats);
+  data.center_of_mass = std::move(m.center_of_mass);
+  data.kappa = kappa_of(data.stats);
+  s->progress = std::max(s->progress, m.frame);
+  if (store_->frame_stored(t.job, {m.level, m.frame})) {
+    const std::optional<FrameData> stored = store_->frame_data(t.job, {m.level, m.frame});
+    // Solved again (a task restarted from its first frame): a stored frame is never changed. The
+    // solve is deterministic, so the two agree; a difference is logged for a look.
+    const bool same = stored->positions.size() == data.positions.size() &&
+                      std::memcmp(stored->positions.data(), data.positions.data(),
+                                  sizeof(double) * data.positions.size()) == 0;
+    event(same ? "frame_repeated" : "frame_differs", t.job, t.id, s->worker,
+          "level " + std::to_string(m.level) + " frame " + std::to_string(m.frame) + " was stored already; kept");
+    return;
+  }
   try {
-    // Written and flushed to the job file first, then recorded: the store never calls a frame
-    // stored that the file does not hold.
-    f->writer->write_frame(m.level, m.frame,
-                           Eigen::Map<const Positions>(m.positions.data(),
-                                                       static_cast<Eigen::Index>(m.positions.size() / 3), 3),
-                           stats);
+    check_frame_stats(data.stats);
   } catch (const InputError& e) {
     refuse(identity, e.what());  // a bad statistic name, say: the frame is not stored
     return;
   }
-  store_->record_frame(t.job, {m.level, m.frame}, kappa_of(m.stats));
-  s->progress = std::max(s->progress, m.frame);
-  for (const auto& [name, value] : m.stats) {
+  // Recorded first (the store is the authority and keeps the data), then written and flushed to the
+  // job file; a crash in between is repaired from the store when the scheduler starts again.
+  store_->record_frame(t.job, {m.level, m.frame}, data);
+  try {
+    files_.write_frame(*f, m.level, m.frame, data);
+  } catch (const std::exception& e) {
+    // The disk, not the worker: the file is built again from the store, which has the frame.
+    event("job_file_error", t.job, t.id, s->worker, e.what());
+    if (!rebuild_job_file(store_->job(t.job))) return;
+  }
+  for (const auto& [name, value] : data.stats) {
     if (name != "solve_seconds") continue;
     auto& [sum, count] = step_seconds_[{t.job, m.level}];
     sum += value;
@@ -166,10 +197,7 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskDone& m) {
     const std::string why = "reported done with " + std::to_string(stored) + " of " + std::to_string(expected) +
                             " frames stored";
     refuse(identity, why);
-    store_->fail_task(t.id, why);
-    event("task_failed", t.job, t.id, s->worker, why);
-    end_attempt_of(*s);
-    cancel_attempts_of_job(t.job, "job failed");
+    attempt_failed(*s, t, why);
     return;
   }
   store_->finish_task(t.id);
@@ -183,12 +211,7 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskDone& m) {
 void Scheduler::on_report(const std::string& identity, protocol::TaskFailed& m) {
   Session* s = attempt_session(identity, m.attempt, m.task, "task_failed");
   if (!s) return;
-  const TaskRow t = store_->task(m.task);
-  store_->fail_task(t.id, m.message);
-  event("task_failed", t.job, t.id, s->worker, m.message);
-  event("job_failed", t.job, 0, 0, "task " + std::to_string(t.id) + " failed: " + m.message);
-  end_attempt_of(*s);
-  cancel_attempts_of_job(t.job, "job failed");
+  attempt_failed(*s, store_->task(m.task), m.message);
 }
 
 void Scheduler::on_report(const std::string& identity, protocol::HierarchyDone& m) {
@@ -203,14 +226,11 @@ void Scheduler::on_report(const std::string& identity, protocol::HierarchyDone& 
   try {
     files_.create(t.job, job.spec.scene.text, job.spec.frames, job.spec.levels, m.hash, m.blob);
   } catch (const std::exception& e) {
-    store_->fail_task(t.id, e.what());
-    event("task_failed", t.job, t.id, s->worker, e.what());
-    end_attempt_of(*s);
-    cancel_attempts_of_job(t.job, "job failed");
+    attempt_failed(*s, t, e.what());
     return;
   }
   s->hierarchies.insert(m.hash);
-  store_->set_hierarchy_hash(t.job, m.hash);
+  store_->store_hierarchy(t.job, m.hash, m.blob);
   store_->finish_task(t.id);
   std::string sizes;
   for (int v : m.vertices) sizes += (sizes.empty() ? "" : "/") + std::to_string(v);

@@ -30,6 +30,9 @@ int main(int argc, char** argv) {
       ->required();
   app.add_option("--name", options.name, "Name shown by pd workers (default host:pid)");
   app.add_option("--scratch", options.scratch_dir, "Folder for received scene files (default /tmp/pd-worker-<pid>)");
+  app.add_option("--fail-level", options.fail_level,
+                 "Fault injection for tests: every task of this level fails with an 'injected failure' message")
+      ->check(CLI::NonNegativeNumber);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -68,8 +68,8 @@ void HierarchyCache::put(const std::string& hash, std::shared_ptr<const SceneHie
 
 bool HierarchyCache::has(const std::string& hash) const { return find(hash) != nullptr; }
 
-TaskRunner::TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache)
-    : wake_fd_(wake_fd), scratch_dir_(std::move(scratch_dir)), cache_(cache) {
+TaskRunner::TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache, int fail_level)
+    : wake_fd_(wake_fd), scratch_dir_(std::move(scratch_dir)), cache_(cache), fail_level_(fail_level) {
   fs::create_directories(scratch_dir_);
 }
 
@@ -245,6 +245,9 @@ std::shared_ptr<const SceneHierarchy> TaskRunner::hierarchy_for(const protocol::
 }
 
 void TaskRunner::run_level(const protocol::AssignTask& task) {
+  if (task.level == fail_level_)
+    throw std::runtime_error("injected failure: this worker fails every level-" + std::to_string(fail_level_) +
+                             " task (--fail-level)");
   const std::string job_dir = scratch_dir_ + "/job-" + std::to_string(task.job);
   const Scene scene = job_scene(task, job_dir);
   const std::shared_ptr<const SceneHierarchy> h = hierarchy_for(task, job_dir);

@@ -38,7 +38,8 @@ class HierarchyCache {
 class TaskRunner {
  public:
   // scratch_dir: where scene files and hierarchy blobs are written (created when missing).
-  TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache);
+  // fail_level >= 0: every level task of that level fails at once (fault injection for tests).
+  TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache, int fail_level = -1);
   ~TaskRunner();  // cancels and joins
   TaskRunner(const TaskRunner&) = delete;
   TaskRunner& operator=(const TaskRunner&) = delete;
@@ -69,6 +70,7 @@ class TaskRunner {
   int wake_fd_;
   std::string scratch_dir_;
   HierarchyCache& cache_;
+  int fail_level_ = -1;
   mutable std::mutex mutex_;
   std::condition_variable below_arrived_;
   std::map<int, Eigen::VectorXd> below_;  // frames of level l-1 fed to the running attempt

@@ -201,7 +201,7 @@ int run_worker(const WorkerOptions& options, const std::atomic<bool>& stop) {
   auto backoff = kMinBackoff;
   int code = 0;
   {
-    TaskRunner runner(wake_fd, options.scratch_dir, cache);
+    TaskRunner runner(wake_fd, options.scratch_dir, cache, options.fail_level);
     while (!stop) {
       bool reconnect;
       bool welcomed;

@@ -15,6 +15,8 @@ struct WorkerOptions {
   std::string name;         // shown by pd workers; default host:pid
   std::string scratch_dir;  // scene files and hierarchy blobs; default /tmp/pd-worker-<pid>
   int heartbeat_ms = 1000;  // until the scheduler's Welcome says otherwise
+  // Fault injection for the farm's tests: every task of this level fails at once (-1: none).
+  int fail_level = -1;
 };
 
 constexpr int kLiveness = 3;  // missed heartbeats before the peer counts as gone

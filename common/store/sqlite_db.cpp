@@ -107,6 +107,15 @@ Statement& Statement::bind(int index, const std::string& value) {
 
 Statement& Statement::bind(int index, const char* value) { return bind(index, std::string(value)); }
 
+Statement& Statement::bind(int index, const Blob& value) {
+  // A zero-length blob still binds as a BLOB (not NULL): the pointer must be non-null.
+  static const char kEmpty = 0;
+  check_bind(sqlite3_bind_blob64(stmt_, index, value.bytes.empty() ? &kEmpty : value.bytes.data(), value.bytes.size(),
+                                 SQLITE_TRANSIENT),
+             index);
+  return *this;
+}
+
 Statement& Statement::bind(int index, std::nullptr_t) {
   check_bind(sqlite3_bind_null(stmt_, index), index);
   return *this;
@@ -176,6 +185,13 @@ std::string Statement::column_text(int column) const {
   return text ? std::string(text, static_cast<size_t>(bytes)) : std::string();
 }
 
+std::string Statement::column_blob(int column) const {
+  check_type(column, SQLITE_BLOB);
+  const auto* bytes = static_cast<const char*>(sqlite3_column_blob(stmt_, column));
+  const int n = sqlite3_column_bytes(stmt_, column);  // after column_blob, as SQLite requires
+  return bytes ? std::string(bytes, static_cast<size_t>(n)) : std::string();
+}
+
 std::optional<double> Statement::column_optional_double(int column) const {
   if (is_null(column)) return std::nullopt;
   return column_double(column);
@@ -225,7 +241,7 @@ using protocol::TaskState;
 using sqlite::Db;
 using sqlite::Statement;
 
-// Schema version 1. States are their protocol names; ids of "none" are NULL; times are seconds since
+// Schema version 2 (1 had no frame data, no hierarchy blobs). States are their protocol names; ids of "none" are NULL; times are seconds since
 // the Unix epoch.
 const char* const kSchema = R"sql(
 CREATE TABLE jobs(
@@ -283,7 +299,15 @@ CREATE TABLE frames(
   level INTEGER NOT NULL,
   frame INTEGER NOT NULL,
   kappa REAL,                         -- J/m^4; NULL when the scene has no contact
-  PRIMARY KEY(job_id, level, frame)) WITHOUT ROWID;
+  positions BLOB NOT NULL,            -- 3 n float64, x0 y0 z0 x1 ..., little-endian (metres)
+  stat_names TEXT NOT NULL,           -- JSON array of the frame's statistic names, in report order
+  stat_values BLOB NOT NULL,          -- one float64 per name
+  center_of_mass BLOB NOT NULL,       -- 3 float64 per object, or empty
+  PRIMARY KEY(job_id, level, frame));
+CREATE TABLE hierarchies(
+  job_id INTEGER PRIMARY KEY REFERENCES jobs(id),
+  hash TEXT NOT NULL,
+  blob BLOB NOT NULL);                -- the hierarchy file as the hierarchy task built it
 CREATE TABLE attempts(
   id INTEGER PRIMARY KEY,
   task_id INTEGER NOT NULL REFERENCES tasks(id),

@@ -56,6 +56,11 @@ class Db {
   std::string label_ = "sqlite";
 };
 
+// Bytes bound as a BLOB (a TEXT binding would be checked as UTF-8 by readers).
+struct Blob {
+  std::string bytes;
+};
+
 // A prepared statement. Parameters are 1-based (as in SQL "?1"); columns 0-based. Reading a column
 // of another type than it holds is an error, except that an integer column reads as a double.
 class Statement {
@@ -73,6 +78,7 @@ class Statement {
   Statement& bind(int index, std::nullptr_t);
   Statement& bind(int index, std::optional<double> value);  // nullopt binds NULL
   Statement& bind(int index, std::optional<int64_t> value);  // nullopt binds NULL
+  Statement& bind(int index, const Blob& value);
   // Binds the arguments to parameters 1, 2, ... in order.
   template <typename... Args>
   Statement& bind_all(const Args&... args) {
@@ -96,6 +102,7 @@ class Statement {
   std::string column_text(int column) const;
   std::optional<double> column_optional_double(int column) const;  // NULL reads nullopt
   std::optional<int64_t> column_optional_int64(int column) const;  // NULL reads nullopt
+  std::string column_blob(int column) const;  // the bytes of a BLOB column (empty for a zero-length one)
 
  private:
   void check_bind(int rc, int index);

@@ -5,7 +5,10 @@
 #include "store/task_store.h"
 
 #include <chrono>
+#include <cstring>
 #include <type_traits>
+
+#include <nlohmann/json.hpp>
 
 #include "store/sqlite_db.h"
 
@@ -50,6 +53,26 @@ void update_row(Db& db, const char* label, const char* noun, const char* sql, in
   if (run_sql(db, sql, id, args...) == 0) db.fail_with(std::string("no ") + noun + " " + std::to_string(id));
   tx.commit();
 }
+
+sqlite::Blob doubles_blob(const std::vector<double>& v) {
+  sqlite::Blob b;
+  b.bytes.resize(v.size() * sizeof(double));
+  if (!v.empty()) std::memcpy(b.bytes.data(), v.data(), b.bytes.size());
+  return b;
+}
+
+std::vector<double> blob_doubles(const Db& db, const std::string& bytes, const char* what) {
+  if (bytes.size() % sizeof(double) != 0)
+    db.fail_with(std::string("frame ") + what + ": " + std::to_string(bytes.size()) + " bytes, not whole float64s");
+  std::vector<double> v(bytes.size() / sizeof(double));
+  if (!v.empty()) std::memcpy(v.data(), bytes.data(), bytes.size());
+  return v;
+}
+
+// Failed attempts count against tasks and workers until the job is requeued (their outcome then
+// becomes kRequeuedFailure).
+constexpr char kFailure[] = "failed";
+constexpr char kRequeuedFailure[] = "failed, requeued";
 
 // What most methods need of a job, without reading its scene.
 struct JobInfo {
@@ -213,6 +236,20 @@ void block_dependents(Db& db, const TaskRow& failed, const std::string& reason) 
   }
 }
 
+// The task fails for good (TaskStore::fail_task), inside the caller's transaction.
+void fail_for_good(Db& db, const TaskRow& t, const std::string& reason) {
+  if (t.state != TaskState::running && t.state != TaskState::ready)
+    db.fail_with("task " + str(t.id) + " is " + to_string(t.state) + ", not running or ready");
+  close_attempts(db, t.id, kFailure, reason);
+  set_task_state(db, t.id, TaskState::failed, reason, false);
+  free_worker(db, t.worker, false);
+  block_dependents(db, t, reason);
+  // The first failure gives the job's reason; a later one (of an independent task) leaves it.
+  run_sql(db, "UPDATE jobs SET state = ?2, reason = ?3, finished = ?4 WHERE id = ?1 AND state IN (?5, ?6)", t.job,
+          to_string(JobState::failed), "task " + str(t.id) + " failed: " + reason, now(),
+          to_string(JobState::queued), to_string(JobState::running));
+}
+
 }  // namespace
 
 struct TaskStore::Impl {
@@ -338,8 +375,22 @@ void TaskStore::set_job_state(int64_t job, JobState state, const std::string& re
              job, to_string(state), reason, job_ended(state) ? now() : 0.0);
 }
 
-void TaskStore::set_hierarchy_hash(int64_t job, const std::string& hash) {
-  update_row(impl_->db, "set_hierarchy_hash", "job", "UPDATE jobs SET hierarchy_hash = ?2 WHERE id = ?1", job, hash);
+void TaskStore::store_hierarchy(int64_t job, const std::string& hash, const std::string& blob) {
+  Db& db = impl_->db;
+  impl_->write("store_hierarchy", [&] {
+    if (run_sql(db, "UPDATE jobs SET hierarchy_hash = ?2 WHERE id = ?1", job, hash) == 0) db.fail_with("no job " + str(job));
+    run_sql(db, "INSERT INTO hierarchies(job_id, hash, blob) VALUES(?1, ?2, ?3) "
+            "ON CONFLICT(job_id) DO UPDATE SET hash = excluded.hash, blob = excluded.blob", job, hash, sqlite::Blob{blob});
+  });
+}
+
+std::string TaskStore::hierarchy_blob(int64_t job) const {
+  Db& db = impl_->db;
+  return impl_->read("hierarchy_blob", [&] {
+    Statement st(db, "SELECT blob FROM hierarchies WHERE job_id = ?1");
+    if (!st.bind_all(job).step()) db.fail_with("job " + str(job) + " has no stored hierarchy");
+    return st.column_blob(0);
+  });
 }
 
 void TaskStore::set_preview_only(int64_t job, bool preview_only) {
@@ -379,19 +430,7 @@ void TaskStore::finish_task(int64_t task) {
 
 void TaskStore::fail_task(int64_t task, const std::string& reason) {
   Db& db = impl_->db;
-  impl_->write("fail_task", [&] {
-    const TaskRow t = read_task(db, task);
-    if (t.state != TaskState::running && t.state != TaskState::ready)
-      db.fail_with("task " + str(task) + " is " + to_string(t.state) + ", not running or ready");
-    close_attempts(db, task, "failed", reason);
-    set_task_state(db, task, TaskState::failed, reason, false);
-    free_worker(db, t.worker, false);
-    block_dependents(db, t, reason);
-    // The first failure gives the job's reason; a later one (of an independent task) leaves it.
-    run_sql(db, "UPDATE jobs SET state = ?2, reason = ?3, finished = ?4 WHERE id = ?1 AND state IN (?5, ?6)", t.job,
-            to_string(JobState::failed), "task " + str(task) + " failed: " + reason, now(),
-            to_string(JobState::queued), to_string(JobState::running));
-  });
+  impl_->write("fail_task", [&] { fail_for_good(db, read_task(db, task), reason); });
 }
 
 void TaskStore::release_task(int64_t task, const std::string& outcome) {
@@ -404,6 +443,80 @@ void TaskStore::release_task(int64_t task, const std::string& outcome) {
     close_attempts(db, task, outcome, "");
     set_task_state(db, task, TaskState::ready, "", false);
     free_worker(db, t.worker, false);
+  });
+}
+
+FailOutcome TaskStore::fail_attempt(int64_t task, int64_t attempt, const std::string& message) {
+  Db& db = impl_->db;
+  const FailOutcome out = impl_->write("fail_attempt", [&] {
+    const TaskRow t = read_task(db, task);
+    if (t.state != TaskState::running || t.attempt != attempt)
+      db.fail_with("fail_attempt: attempt " + str(attempt) + " is not task " + str(task) + "'s running attempt");
+    run_sql(db, "UPDATE attempts SET ended = ?2, outcome = ?3, message = ?4 WHERE id = ?1", attempt, now(), kFailure,
+            message);
+    FailOutcome o;
+    Statement workers(db, "SELECT COUNT(DISTINCT worker_id) FROM attempts WHERE task_id = ?1 AND outcome = ?2");
+    workers.bind_all(task, kFailure).step();
+    o.workers_failed = workers.column_int(0);
+    Statement mine(db, "SELECT COUNT(*) FROM attempts a JOIN tasks u ON u.id = a.task_id "
+                       "WHERE u.job_id = ?1 AND a.worker_id = ?2 AND a.outcome = ?3");
+    mine.bind_all(t.job, t.worker, kFailure).step();
+    o.worker_blocklisted = mine.column_int(0) == kBlocklistFailures;
+    o.task_failed = o.workers_failed >= kMaxTaskWorkers;
+    if (o.task_failed) {
+      fail_for_good(db, t, message + " (failed on " + str(o.workers_failed) + " workers)");
+    } else {
+      set_task_state(db, task, TaskState::ready, message, false);
+      free_worker(db, t.worker, false);
+    }
+    return o;
+  });
+  return out;
+}
+
+bool TaskStore::may_run(int64_t task, int64_t worker) const {
+  Db& db = impl_->db;
+  return impl_->read("may_run", [&] {
+    const TaskRow t = read_task(db, task);
+    Statement own(db, "SELECT COUNT(*) FROM attempts WHERE task_id = ?1 AND worker_id = ?2 AND outcome = ?3");
+    own.bind_all(task, worker, kFailure).step();
+    if (own.column_int(0) > 0) return false;
+    Statement job(db, "SELECT COUNT(*) FROM attempts a JOIN tasks u ON u.id = a.task_id "
+                      "WHERE u.job_id = ?1 AND a.worker_id = ?2 AND a.outcome = ?3");
+    job.bind_all(t.job, worker, kFailure).step();
+    return job.column_int(0) < kBlocklistFailures;
+  });
+}
+
+int TaskStore::requeue_job(int64_t job) {
+  Db& db = impl_->db;
+  return impl_->write("requeue_job", [&] {
+    const JobInfo info = job_info(db, job);
+    if (info.state != JobState::failed)
+      db.fail_with("job " + str(job) + " is " + to_string(info.state) + ", only a failed job can be requeued");
+    run_sql(db, "UPDATE attempts SET outcome = ?2 WHERE outcome = ?3 AND task_id IN "
+            "(SELECT id FROM tasks WHERE job_id = ?1)", job, kRequeuedFailure, kFailure);
+    const int n = run_sql(db, "UPDATE tasks SET state = ?2, reason = '', worker_id = NULL "
+                          "WHERE job_id = ?1 AND state IN (?3, ?4)", job, to_string(TaskState::waiting),
+                          to_string(TaskState::failed), to_string(TaskState::blocked));
+    run_sql(db, "UPDATE jobs SET state = ?2, reason = '', finished = 0 WHERE id = ?1", job, to_string(JobState::running));
+    promote(db, job);
+    return n;
+  });
+}
+
+std::vector<TaskRow> TaskStore::recover_after_restart() {
+  Db& db = impl_->db;
+  return impl_->write("recover_after_restart", [&] {
+    std::vector<TaskRow> released;
+    Statement st(db, std::string("SELECT ") + kTaskColumns + " FROM tasks t WHERE t.state = ?1 ORDER BY t.id");
+    st.bind_all(to_string(TaskState::running));
+    while (st.step()) released.push_back(task_from(db, st));
+    run_sql(db, "UPDATE attempts SET ended = ?1, outcome = 'scheduler restarted' WHERE ended IS NULL", now());
+    run_sql(db, "UPDATE tasks SET state = ?1, worker_id = NULL WHERE state = ?2", to_string(TaskState::ready),
+            to_string(TaskState::running));
+    run_sql(db, "UPDATE workers SET state = 'lost'");
+    return released;
   });
 }
 
@@ -424,13 +537,63 @@ void TaskStore::cancel_job(int64_t job) {
   });
 }
 
-void TaskStore::record_frame(int64_t job, const FrameKey& key, std::optional<double> kappa) {
+void TaskStore::record_frame(int64_t job, const FrameKey& key, const FrameData& data) {
   Db& db = impl_->db;
   impl_->write("record_frame", [&] {
     check_frame(db, "record_frame", job, job_info(db, job), key);
-    run_sql(db, "INSERT INTO frames(job_id, level, frame, kappa) VALUES(?1, ?2, ?3, ?4) "
-            "ON CONFLICT(job_id, level, frame) DO UPDATE SET kappa = excluded.kappa", job, key.level, key.frame, kappa);
+    nlohmann::json names = nlohmann::json::array();
+    std::vector<double> values;
+    for (const auto& [name, value] : data.stats) {
+      names.push_back(name);
+      values.push_back(value);
+    }
+    run_sql(db, "INSERT INTO frames(job_id, level, frame, kappa, positions, stat_names, stat_values, center_of_mass) "
+            "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8) ON CONFLICT(job_id, level, frame) DO UPDATE SET "
+            "kappa = excluded.kappa, positions = excluded.positions, stat_names = excluded.stat_names, "
+            "stat_values = excluded.stat_values, center_of_mass = excluded.center_of_mass",
+            job, key.level, key.frame, data.kappa, doubles_blob(data.positions), names.dump(), doubles_blob(values),
+            doubles_blob(data.center_of_mass));
     promote(db, job);
+  });
+}
+
+std::optional<FrameData> TaskStore::frame_data(int64_t job, const FrameKey& key) const {
+  Db& db = impl_->db;
+  return impl_->read("frame_data", [&]() -> std::optional<FrameData> {
+    check_frame(db, "frame_data", job, job_info(db, job), key);
+    Statement st(db, "SELECT kappa, positions, stat_names, stat_values, center_of_mass FROM frames "
+                     "WHERE job_id = ?1 AND level = ?2 AND frame = ?3");
+    if (!st.bind_all(job, key.level, key.frame).step()) return std::nullopt;
+    FrameData d;
+    d.kappa = st.column_optional_double(0);
+    d.positions = blob_doubles(db, st.column_blob(1), "positions");
+    const std::vector<double> values = blob_doubles(db, st.column_blob(3), "stat_values");
+    nlohmann::json names;
+    try {
+      names = nlohmann::json::parse(st.column_text(2));
+    } catch (const nlohmann::json::exception& e) {
+      db.fail_with("job " + str(job) + ": frame stat_names: " + e.what());
+    }
+    if (!names.is_array() || names.size() != values.size())
+      db.fail_with("job " + str(job) + ": frame stat_names: not an array of one name per value");
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      if (!names[i].is_string()) db.fail_with("job " + str(job) + ": frame stat_names: not a string");
+      d.stats.emplace_back(names[i].get<std::string>(), values[i]);
+    }
+    d.center_of_mass = blob_doubles(db, st.column_blob(4), "center_of_mass");
+    return d;
+  });
+}
+
+std::vector<FrameKey> TaskStore::frame_keys(int64_t job) const {
+  Db& db = impl_->db;
+  return impl_->read("frame_keys", [&] {
+    job_info(db, job);
+    Statement st(db, "SELECT level, frame FROM frames WHERE job_id = ?1 ORDER BY level, frame");
+    st.bind_all(job);
+    std::vector<FrameKey> keys;
+    while (st.step()) keys.push_back(FrameKey{st.column_int(0), st.column_int(1)});
+    return keys;
   });
 }
 
@@ -485,10 +648,16 @@ std::optional<Claim> TaskStore::claim_next(int64_t worker) {
   Db& db = impl_->db;
   return impl_->write("claim_next", [&]() -> std::optional<Claim> {
     require_worker(db, worker);
+    // Not a task this worker failed, nor one of a job it is blocklisted for.
     Statement pick(db, "SELECT t.id, t.job_id FROM tasks t JOIN jobs j ON j.id = t.job_id "
                        "WHERE t.state = ?1 AND j.state IN (?2, ?3) "
+                       "AND NOT EXISTS (SELECT 1 FROM attempts a WHERE a.task_id = t.id AND a.worker_id = ?4 "
+                       "                AND a.outcome = ?5) "
+                       "AND (SELECT COUNT(*) FROM attempts a JOIN tasks u ON u.id = a.task_id "
+                       "     WHERE u.job_id = t.job_id AND a.worker_id = ?4 AND a.outcome = ?5) < ?6 "
                        "ORDER BY j.priority DESC, j.id, t.level, t.first, t.id LIMIT 1");
-    pick.bind_all(to_string(TaskState::ready), to_string(JobState::queued), to_string(JobState::running));
+    pick.bind_all(to_string(TaskState::ready), to_string(JobState::queued), to_string(JobState::running), worker,
+                  kFailure, kBlocklistFailures);
     if (!pick.step()) return std::nullopt;
     const int64_t task = pick.column_int64(0), job = pick.column_int64(1);
     run_sql(db, "INSERT INTO attempts(task_id, worker_id, started) VALUES(?1, ?2, ?3)", task, worker, now());
@@ -498,6 +667,15 @@ std::optional<Claim> TaskStore::claim_next(int64_t worker) {
     run_sql(db, "UPDATE jobs SET state = ?2 WHERE id = ?1", job, to_string(JobState::running));
     run_sql(db, "UPDATE workers SET state = 'busy' WHERE id = ?1", worker);
     return Claim{read_task(db, task), attempt};
+  });
+}
+
+bool TaskStore::has_ready_task() const {
+  Db& db = impl_->db;
+  return impl_->read("has_ready_task", [&] {
+    Statement st(db, "SELECT 1 FROM tasks t JOIN jobs j ON j.id = t.job_id WHERE t.state = ?1 AND j.state IN (?2, ?3) "
+                     "LIMIT 1");
+    return st.bind_all(to_string(TaskState::ready), to_string(JobState::queued), to_string(JobState::running)).step();
   });
 }
 
@@ -518,6 +696,13 @@ int64_t TaskStore::add_worker(const std::string& name, const std::string& host, 
   Db& db = impl_->db;
   return impl_->write("add_worker", [&] {
     if (cores < 1) db.fail_with("add_worker: cores " + str(cores) + ", expected at least 1");
+    Statement known(db, "SELECT id FROM workers WHERE name = ?1 ORDER BY id LIMIT 1");
+    if (known.bind_all(name).step()) {
+      const int64_t id = known.column_int64(0);
+      run_sql(db, "UPDATE workers SET host = ?2, version = ?3, cores = ?4, state = 'idle', last_seen = ?5 WHERE id = ?1",
+              id, host, version, cores, now());
+      return id;
+    }
     run_sql(db, "INSERT INTO workers(name, host, version, cores, state, last_seen) VALUES(?1, ?2, ?3, ?4, 'idle', ?5)",
             name, host, version, cores, now());
     return db.last_insert_id();

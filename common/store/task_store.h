@@ -8,13 +8,19 @@
 //   tasks(id, job_id, kind, level, first, last, state, reason, worker_id, attempts)
 //   task_after(task_id, after_task_id)      the task waits until after_task_id is done (hierarchy)
 //   task_frames(task_id, level, frame)      frames of the job that must be stored before dispatch
-//   frames(job_id, level, frame, kappa)     frames stored in the job file (kappa: barrier stiffness
-//                                            at the frame, J/m^4, NULL when the scene has no contact)
+//   frames(job_id, level, frame, kappa, positions, stat_names, stat_values, center_of_mass)
+//                                            every stored frame with its data (kappa: barrier
+//                                            stiffness at the frame, J/m^4, NULL without contact)
+//   hierarchies(job_id, hash, blob)          the job's hierarchy file as its hierarchy task built it
 //   attempts(id, task_id, worker_id, started, ended, outcome, message)
 //   workers(id, name, host, version, cores, state, last_seen, tasks_done)
 //   events(id, time, job_id, task_id, worker_id, kind, message)
 // Times are seconds since the Unix epoch (double). States are stored by their protocol names
 // (protocol/protocol.h), one enum each, defined there.
+//
+// The store is the farm's authority on frames: a frame is recorded here (with its data) before it is
+// written to the job's HDF5 file, so a job file lost or broken by a crash is repaired from the store
+// (scheduler/job_files.h) and every frame recorded as stored reads back exactly.
 //
 // Durability: WAL mode with synchronous = NORMAL (a committed transaction survives a crash of the
 // process), a busy timeout of 5 s, foreign keys on. Every method is one transaction; claim_next runs
@@ -33,7 +39,7 @@
 
 namespace pd {
 
-constexpr int kTaskStoreSchemaVersion = 1;
+constexpr int kTaskStoreSchemaVersion = 2;
 
 class StoreError : public std::runtime_error {
  public:
@@ -66,6 +72,26 @@ struct NewTask {
   int last = 0;
   bool after_hierarchy = false;
   std::vector<FrameKey> needs;
+};
+
+// A stored frame's data, as the worker reported it and the job file holds it.
+struct FrameData {
+  std::vector<double> positions;             // 3 n, stacked x0 y0 z0 x1 ... (metres)
+  std::vector<protocol::Stat> stats;         // in report order
+  std::vector<double> center_of_mass;        // 3 per object, or empty
+  std::optional<double> kappa;               // barrier stiffness at the frame (J/m^4); none without contact
+};
+
+// Flamenco's rules for failures: a task that failed on this many distinct workers fails for good;
+// a worker that failed this many tasks of a job is blocklisted for the job (takes none of its tasks).
+constexpr int kMaxTaskWorkers = 3;
+constexpr int kBlocklistFailures = 3;
+
+// What fail_attempt decided.
+struct FailOutcome {
+  bool task_failed = false;         // for good: the task is failed, its dependents blocked, the job failed
+  int workers_failed = 0;           // distinct workers whose attempts of the task failed (this one included)
+  bool worker_blocklisted = false;  // this failure blocklisted the worker for the job
 };
 
 struct JobRow {
@@ -130,7 +156,9 @@ class TaskStore {
   std::optional<JobRow> find_job(int64_t id) const;
   std::vector<JobRow> jobs() const;  // by id
   void set_job_state(int64_t job, protocol::JobState state, const std::string& reason = "");
-  void set_hierarchy_hash(int64_t job, const std::string& hash);
+  // The hierarchy task's result: sets the job's hierarchy_hash and keeps the file's bytes.
+  void store_hierarchy(int64_t job, const std::string& hash, const std::string& blob);
+  std::string hierarchy_blob(int64_t job) const;  // StoreError when the job has none
   // Sets preview_only = false (pd refine).
   void set_preview_only(int64_t job, bool preview_only);
 
@@ -140,18 +168,33 @@ class TaskStore {
   // Marks a running or ready task done (worker credited with tasks_done + 1 when given); promotes the
   // tasks waiting after it; the job becomes done when all its tasks are.
   void finish_task(int64_t task);
-  // The task's attempt failed: the task becomes failed with `reason`; every task of the job that
-  // needs one of its frames (directly or through others) becomes blocked, and the job failed.
+  // The task fails for good with `reason`: every task of the job that needs one of its frames
+  // (directly or through others) becomes blocked, and the job failed. Its open attempt closes failed.
   void fail_task(int64_t task, const std::string& reason);
+  // The running attempt `attempt` of `task` failed with `message` (a soft failure): closed as failed;
+  // after kMaxTaskWorkers distinct workers the task fails for good (fail_task), else it is ready
+  // again for any worker but those that failed it. The attempt's worker is blocklisted for the job
+  // after kBlocklistFailures failed tasks of it.
+  FailOutcome fail_attempt(int64_t task, int64_t attempt, const std::string& message);
+  // Whether `worker` may take `task`: it has not failed it and is not blocklisted for its job.
+  bool may_run(int64_t task, int64_t worker) const;
+  // A failed job runs again: its failed and blocked tasks go back to waiting (ready when their inputs
+  // are stored), earlier failures stop counting against tasks and workers. Returns the tasks requeued.
+  int requeue_job(int64_t job);
+  // At scheduler start: every attempt still open ends "scheduler restarted", its task goes back to
+  // ready, and every worker is lost until it says hello again. Returns the tasks released.
+  std::vector<TaskRow> recover_after_restart();
   // A running task goes back to ready (its worker was lost or the attempt was refused); its attempt
   // is closed with `outcome`.
   void release_task(int64_t task, const std::string& outcome);
   // Every waiting, ready or running task of the job becomes cancelled, the job cancelled.
   void cancel_job(int64_t job);
 
-  // Frames. record_frame is called after the frame is written and flushed to the job file; it then
-  // promotes the waiting tasks whose inputs are all stored. Recording a frame again updates kappa.
-  void record_frame(int64_t job, const FrameKey& key, std::optional<double> kappa);
+  // Frames. record_frame stores the frame's data (before the job file is written, see the top) and
+  // promotes the waiting tasks whose inputs are all stored. Recording a frame again replaces it.
+  void record_frame(int64_t job, const FrameKey& key, const FrameData& data);
+  std::optional<FrameData> frame_data(int64_t job, const FrameKey& key) const;  // nullopt when not stored
+  std::vector<FrameKey> frame_keys(int64_t job) const;  // the job's stored frames, by level then frame
   bool frame_stored(int64_t job, const FrameKey& key) const;
   std::optional<double> frame_kappa(int64_t job, const FrameKey& key) const;
   // Stored frames per level (index = level, size = the job's levels).
@@ -163,10 +206,14 @@ class TaskStore {
   // priority, then oldest job, then lowest level, then earliest first frame), marked running on
   // `worker` with a new attempt; the job becomes running. nullopt when none is ready.
   std::optional<Claim> claim_next(int64_t worker);
+  // Whether any task of a queued or running job is ready (a read: lets the scheduler skip claiming
+  // for each idle worker when there is nothing to claim).
+  bool has_ready_task() const;
   // Closes an attempt (outcome: "done", "failed", "lost", "cancelled", "refused", ...).
   void end_attempt(int64_t attempt, const std::string& outcome, const std::string& message = "");
 
-  // Workers.
+  // Workers. A worker is known by its name: add_worker for a name already in the store updates and
+  // returns that row (so failures and blocklists follow a worker across reconnections).
   int64_t add_worker(const std::string& name, const std::string& host, const std::string& version, int cores);
   void set_worker_state(int64_t worker, const std::string& state);
   void touch_worker(int64_t worker);  // last_seen = now

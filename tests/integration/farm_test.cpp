@@ -61,24 +61,10 @@ using test::submit;
 using test::wait_until_done;
 using test::same_bits;
 using test::expect_identical_frames;
+using test::finish_reference;
+using test::start_reference;
 
 constexpr int kFullFrames = 200;  // scenes/cube-trampoline.json's own count
-
-// `pd simulate SCENE --mode progressive --frames N --out OUT`, started now to run beside the farm.
-test::Process start_reference(const std::string& scene, const std::string& out, int frames) {
-  test::Process p;
-  p.start({PD_BINARY, "simulate", scene, "--mode", "progressive", "--frames", std::to_string(frames), "--quiet",
-           "--out", out},
-          {}, out + ".log", out + ".log");
-  return p;
-}
-
-void finish_reference(test::Process& p, const std::string& out, std::chrono::milliseconds timeout) {
-  const auto code = p.wait_for_exit(timeout);
-  if (code != 0)
-    throw std::runtime_error("pd simulate " + (code ? "exited " + std::to_string(*code) : "timed out") + ":\n" +
-                             test::file_tail(out + ".log"));
-}
 
 // Largest vertex distance (m) between the files over frames first..last of `level`.
 double max_vertex_deviation(const FrameReader& a, const FrameReader& b, int level, int first, int last) {

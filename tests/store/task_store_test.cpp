@@ -1,6 +1,9 @@
 #include "store/task_store.h"
 
 #include <gtest/gtest.h>
+
+#include <cstring>
+#include <limits>
 #include "support/test_paths.h"
 #include <poll.h>
 #include <signal.h>
@@ -50,6 +53,12 @@ std::string raw_value(const std::string& path, const char* sql, int64_t id = 0) 
   sqlite3_finalize(st);
   sqlite3_close(db);
   return value;
+}
+
+FrameData with_kappa(std::optional<double> kappa) {
+  FrameData d;
+  d.kappa = kappa;
+  return d;
 }
 
 NewJob make_job(int frames, int levels, int priority = 0) {
@@ -150,7 +159,7 @@ TEST_F(TaskStoreTest, NewStoreHasSchemaVersionAndAnotherVersionIsRefused) {
   ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
   ASSERT_EQ(sqlite3_exec(db, "PRAGMA user_version = 99", nullptr, nullptr, nullptr), SQLITE_OK);
   sqlite3_close(db);
-  EXPECT_EQ(store_error_of([&] { TaskStore s(path_); }), path_ + ": schema version 99, this program reads 1");
+  EXPECT_EQ(store_error_of([&] { TaskStore s(path_); }), path_ + ": schema version 99, this program reads " + std::to_string(kTaskStoreSchemaVersion));
 }
 
 TEST_F(TaskStoreTest, FileThatIsNotADatabaseIsRefusedAndLeftAlone) {
@@ -192,7 +201,7 @@ TEST_F(TaskStoreTest, TasksBecomeReadyAsTheHierarchyAndTheirFramesAreStored) {
   EXPECT_EQ(s.job(job).state, JobState::queued);
   EXPECT_EQ(ids_in_state(s, job, TaskState::ready), (std::vector<int64_t>{h}));
 
-  s.record_frame(job, {0, 0}, std::nullopt);  // a1's frame, but a1 also waits for the hierarchy
+  s.record_frame(job, {0, 0}, FrameData{});  // a1's frame, but a1 also waits for the hierarchy
   EXPECT_EQ(ids_in_state(s, job, TaskState::ready), (std::vector<int64_t>{h}));
 
   const int64_t w = s.add_worker("w", "host", "1.0", 4);
@@ -200,12 +209,12 @@ TEST_F(TaskStoreTest, TasksBecomeReadyAsTheHierarchyAndTheirFramesAreStored) {
   s.finish_task(h);
   EXPECT_EQ(ids_in_state(s, job, TaskState::ready), (std::vector<int64_t>{a0, a1}));
 
-  s.record_frame(job, {0, 1}, std::nullopt);
-  s.record_frame(job, {0, 2}, std::nullopt);
+  s.record_frame(job, {0, 1}, FrameData{});
+  s.record_frame(job, {0, 2}, FrameData{});
   EXPECT_EQ(ids_in_state(s, job, TaskState::ready), (std::vector<int64_t>{a0, a1}));
-  s.record_frame(job, {1, 3}, std::nullopt);  // level 1's frame 3 is not what b0 and b1 need
+  s.record_frame(job, {1, 3}, FrameData{});  // level 1's frame 3 is not what b0 and b1 need
   EXPECT_EQ(ids_in_state(s, job, TaskState::ready), (std::vector<int64_t>{a0, a1}));
-  s.record_frame(job, {0, 3}, std::nullopt);
+  s.record_frame(job, {0, 3}, FrameData{});
   EXPECT_EQ(ids_in_state(s, job, TaskState::ready), (std::vector<int64_t>{a0, b0, a1, b1}));
 }
 
@@ -234,13 +243,17 @@ TEST_F(TaskStoreTest, ClaimOrderIsPriorityThenJobThenLevelThenFirstFrame) {
 TEST_F(TaskStoreTest, ClaimNextReturnsNulloptWhenNothingIsReady) {
   TaskStore s(path_);
   const int64_t w = s.add_worker("w", "host", "1.0", 1);
+  EXPECT_FALSE(s.has_ready_task());
   EXPECT_FALSE(s.claim_next(w).has_value());  // empty store
   const int64_t job = s.add_job(make_job(4, 1), {level_task(0, 0, 4, {{0, 0}})});
+  EXPECT_FALSE(s.has_ready_task());
   EXPECT_FALSE(s.claim_next(w).has_value());  // its task waits for frame 0
   EXPECT_EQ(s.worker(w).state, "idle");
   EXPECT_EQ(s.job(job).state, JobState::queued);
-  s.record_frame(job, {0, 0}, std::nullopt);
+  s.record_frame(job, {0, 0}, FrameData{});
+  EXPECT_TRUE(s.has_ready_task());
   EXPECT_TRUE(s.claim_next(w).has_value());
+  EXPECT_FALSE(s.has_ready_task());
   EXPECT_EQ(s.worker(w).state, "busy");
 }
 
@@ -366,7 +379,7 @@ TEST_F(TaskStoreTest, FinishingTheLastTaskMakesTheJobDone) {
   EXPECT_EQ(s.worker(w).state, "idle");
   EXPECT_EQ(s.job(job).state, JobState::running);
   EXPECT_FALSE(s.claim_next(w).has_value());  // the second waits for frame 2
-  s.record_frame(job, {0, 2}, 1e8);
+  s.record_frame(job, {0, 2}, with_kappa(1e8));
   auto second = s.claim_next(w);
   ASSERT_TRUE(second);
   const double before = now_seconds();
@@ -512,19 +525,19 @@ TEST_F(TaskStoreTest, RecordFrameRoundTripsKappaAndUpdatesIt) {
   EXPECT_FALSE(s.frame_stored(job, {0, 4}));
   EXPECT_EQ(s.frame_kappa(job, {0, 4}), std::nullopt);
   const double kappa = 1.0 / 3.0 * 1e9;
-  s.record_frame(job, {0, 4}, kappa);
+  s.record_frame(job, {0, 4}, with_kappa(kappa));
   EXPECT_TRUE(s.frame_stored(job, {0, 4}));
   EXPECT_EQ(s.frame_kappa(job, {0, 4}), std::optional<double>(kappa));  // bit for bit
-  s.record_frame(job, {0, 4}, 2.5e9);
+  s.record_frame(job, {0, 4}, with_kappa(2.5e9));
   EXPECT_EQ(s.frame_kappa(job, {0, 4}), std::optional<double>(2.5e9));
-  s.record_frame(job, {0, 4}, std::nullopt);  // the scene has no contact after all: NULL
+  s.record_frame(job, {0, 4}, FrameData{});  // the scene has no contact after all: NULL
   EXPECT_TRUE(s.frame_stored(job, {0, 4}));
   EXPECT_EQ(s.frame_kappa(job, {0, 4}), std::nullopt);
   EXPECT_EQ(s.frames_stored(job), (std::vector<int>{1, 0}));  // recorded three times, stored once
   const std::string id = std::to_string(job);
-  EXPECT_EQ(store_error_of([&] { s.record_frame(job, {2, 0}, std::nullopt); }),
+  EXPECT_EQ(store_error_of([&] { s.record_frame(job, {2, 0}, FrameData{}); }),
             path_ + ": record_frame: job " + id + ": level 2 outside 0..1");
-  EXPECT_EQ(store_error_of([&] { s.record_frame(job, {1, 11}, std::nullopt); }),
+  EXPECT_EQ(store_error_of([&] { s.record_frame(job, {1, 11}, FrameData{}); }),
             path_ + ": record_frame: job " + id + ": frame 11 outside 0..10");
 }
 
@@ -532,9 +545,9 @@ TEST_F(TaskStoreTest, FramesStoredCountsPerLevelAndStoredFramesListsSorted) {
   TaskStore s(path_);
   const int64_t job = s.add_job(make_job(8, 3), {level_task(0, 0, 8)});
   const int64_t other = s.add_job(make_job(8, 3), {level_task(0, 0, 8)});
-  for (int t : {5, 0, 3, 8}) s.record_frame(job, {0, t}, std::nullopt);
-  s.record_frame(job, {2, 1}, std::nullopt);
-  s.record_frame(other, {1, 1}, std::nullopt);
+  for (int t : {5, 0, 3, 8}) s.record_frame(job, {0, t}, FrameData{});
+  s.record_frame(job, {2, 1}, FrameData{});
+  s.record_frame(other, {1, 1}, FrameData{});
   EXPECT_EQ(s.frames_stored(job), (std::vector<int>{4, 0, 1}));
   EXPECT_EQ(s.frames_stored(other), (std::vector<int>{0, 1, 0}));
   EXPECT_EQ(s.stored_frames(job, 0, 0, 8), (std::vector<int>{0, 3, 5, 8}));
@@ -550,7 +563,7 @@ TEST_F(TaskStoreTest, AddTasksRefinesADoneJob) {
   const int64_t w = s.add_worker("w", "host", "1.0", 1);
   s.finish_task(s.claim_next(w)->task.id);
   s.finish_task(s.claim_next(w)->task.id);
-  for (int t = 0; t <= 4; ++t) s.record_frame(job, {0, t}, std::nullopt);
+  for (int t = 0; t <= 4; ++t) s.record_frame(job, {0, t}, FrameData{});
   ASSERT_EQ(s.job(job).state, JobState::done);
   s.set_preview_only(job, false);
   s.add_tasks(job, {level_task(1, 0, 2, {{0, 0}}, true), level_task(1, 2, 4, {{0, 2}, {1, 2}}, true)});
@@ -590,7 +603,7 @@ TEST_F(TaskStoreTest, WorkersAndEvents) {
   TaskStore s(path_);
   const double before = now_seconds();
   const int64_t a = s.add_worker("node", "host-a", "1.0", 8);
-  const int64_t b = s.add_worker("node", "host-a", "1.0", 8);  // a reconnect: a new row, same name
+  const int64_t b = s.add_worker("other", "host-a", "1.0", 8);
   EXPECT_NE(a, b);
   const WorkerRow wa = s.worker(a);
   EXPECT_EQ(join(wa.id, wa.name, wa.host, wa.version, wa.cores, wa.state, wa.tasks_done),
@@ -602,6 +615,11 @@ TEST_F(TaskStoreTest, WorkersAndEvents) {
   const std::vector<WorkerRow> all = s.workers();
   ASSERT_EQ(all.size(), 2u);
   EXPECT_EQ(join(all[0].id, all[0].state, all[1].id, all[1].state), join(a, "lost", b, "idle"));
+  // A reconnect under the same name is the same worker (failures and blocklists follow it).
+  EXPECT_EQ(s.add_worker("node", "host-b", "1.1", 4), a);
+  EXPECT_EQ(join(s.worker(a).host, s.worker(a).version, s.worker(a).cores, s.worker(a).state),
+            join("host-b", "1.1", 4, "idle"));
+  EXPECT_EQ(s.workers().size(), 2u);
   EXPECT_EQ(store_error_of([&] { s.set_worker_state(b, "asleep"); }),
             path_ + ": set_worker_state: unknown worker state 'asleep' (allowed: idle, busy, lost)");
 
@@ -636,10 +654,10 @@ TEST_F(TaskStoreTest, StateSurvivesClosingAndReopening) {
                                          level_task(1, 0, 4, {{0, 0}, {0, 1}}, true)});
     const int64_t w = s.add_worker("w", "host", "2.1", 16);
     s.finish_task(s.claim_next(w)->task.id);
-    s.set_hierarchy_hash(job, "ab12cd");
+    s.store_hierarchy(job, "ab12cd", "hierarchy bytes");
     s.claim_next(w);
-    s.record_frame(job, {0, 0}, 7.5e8);
-    s.record_frame(job, {0, 1}, std::nullopt);
+    s.record_frame(job, {0, 0}, with_kappa(7.5e8));
+    s.record_frame(job, {0, 1}, FrameData{});
     s.log_event(job, 0, w, "hierarchy", "built");
     jobs = describe_all(s.jobs());
     tasks = describe_all(s.tasks(job));
@@ -685,10 +703,10 @@ TEST_F(TaskStoreTest, UnknownIdsThrowStoreErrorNamingTheId) {
   EXPECT_EQ(store_error_of([&] { s.tasks(99); }), no_job);
   EXPECT_EQ(store_error_of([&] { s.add_tasks(99, {level_task(0, 0, 1)}); }), no_job);
   EXPECT_EQ(store_error_of([&] { s.set_job_state(99, JobState::done); }), no_job);
-  EXPECT_EQ(store_error_of([&] { s.set_hierarchy_hash(99, "x"); }), no_job);
+  EXPECT_EQ(store_error_of([&] { s.store_hierarchy(99, "x", ""); }), no_job);
   EXPECT_EQ(store_error_of([&] { s.set_preview_only(99, false); }), no_job);
   EXPECT_EQ(store_error_of([&] { s.cancel_job(99); }), no_job);
-  EXPECT_EQ(store_error_of([&] { s.record_frame(99, {0, 0}, std::nullopt); }), no_job);
+  EXPECT_EQ(store_error_of([&] { s.record_frame(99, {0, 0}, FrameData{}); }), no_job);
   EXPECT_EQ(store_error_of([&] { s.frame_stored(99, {0, 0}); }), no_job);
   EXPECT_EQ(store_error_of([&] { s.frames_stored(99); }), no_job);
   EXPECT_EQ(store_error_of([&] { s.stored_frames(99, 0, 0, 1); }), no_job);
@@ -705,6 +723,147 @@ TEST_F(TaskStoreTest, UnknownIdsThrowStoreErrorNamingTheId) {
   EXPECT_EQ(store_error_of([&] { s.touch_worker(99); }), no_worker);
   EXPECT_EQ(store_error_of([&] { s.log_event(0, 0, 99, "k", ""); }), no_worker);
   EXPECT_EQ(store_error_of([&] { s.end_attempt(99, "lost"); }), path_ + ": no attempt 99");
+}
+
+// Flamenco's rules: a task that failed on a worker is not given to it again, fails for good after
+// kMaxTaskWorkers workers (dependents blocked, job failed); requeue forgets the failures.
+TEST_F(TaskStoreTest, AFailedAttemptIsRetriedOnOtherWorkersAndTheTaskFailsAfterThree) {
+  TaskStore s(path_);
+  const int64_t job = s.add_job(make_job(6, 2), {level_task(0, 0, 6), level_task(1, 0, 6, {{0, 0}})});
+  const std::vector<TaskRow> t = s.tasks(job);
+  std::vector<int64_t> w;
+  for (int i = 0; i < 4; ++i) w.push_back(s.add_worker("w" + std::to_string(i), "host", "1.0", 1));
+  ASSERT_EQ(kMaxTaskWorkers, 3);
+  for (int i = 0; i < kMaxTaskWorkers; ++i) {
+    // Every worker that failed it is passed over; the next one gets it.
+    for (int j = 0; j < i; ++j) {
+      EXPECT_FALSE(s.may_run(t[0].id, w[j])) << "worker " << j << " failed it";
+      EXPECT_FALSE(s.claim_next(w[j]).has_value()) << "worker " << j << " failed it";
+    }
+    EXPECT_TRUE(s.may_run(t[0].id, w[i]));
+    const Claim c = *s.claim_next(w[i]);
+    ASSERT_EQ(c.task.id, t[0].id);
+    const FailOutcome o = s.fail_attempt(t[0].id, c.attempt, "no safe upsampling");
+    EXPECT_EQ(o.workers_failed, i + 1);
+    EXPECT_EQ(o.task_failed, i + 1 == kMaxTaskWorkers);
+    EXPECT_FALSE(o.worker_blocklisted);
+    EXPECT_EQ(s.worker(w[i]).state, "idle");
+  }
+  EXPECT_EQ(states_of(s, job), "failed blocked");
+  EXPECT_EQ(s.tasks(job)[0].attempts, 3);
+  EXPECT_EQ(s.job(job).state, JobState::failed);
+  EXPECT_EQ(s.job(job).reason, "task " + std::to_string(t[0].id) + " failed: no safe upsampling (failed on 3 workers)");
+  EXPECT_FALSE(s.claim_next(w[3]).has_value());
+
+  // Requeued: both tasks wait again (level 0 is ready at once), and the workers that failed it may
+  // take it again.
+  EXPECT_EQ(s.requeue_job(job), 2);
+  EXPECT_EQ(states_of(s, job), "ready waiting");
+  EXPECT_EQ(s.job(job).state, JobState::running);
+  EXPECT_EQ(s.job(job).reason, "");
+  EXPECT_EQ(s.job(job).finished, 0.0);
+  EXPECT_TRUE(s.may_run(t[0].id, w[0]));
+  EXPECT_EQ(s.claim_next(w[0])->task.id, t[0].id);
+  EXPECT_EQ(store_error_of([&] { s.requeue_job(job); }),
+            path_ + ": job " + std::to_string(job) + " is running, only a failed job can be requeued");
+}
+
+TEST_F(TaskStoreTest, AWorkerThatFailsThreeTasksOfAJobIsBlocklistedForThatJobOnly) {
+  TaskStore s(path_);
+  const int64_t job = s.add_job(make_job(8, 1), {level_task(0, 0, 2), level_task(0, 2, 4), level_task(0, 4, 6),
+                                                  level_task(0, 6, 8)});
+  const int64_t other = s.add_job(make_job(2, 1), {level_task(0, 0, 2)});
+  // The tasks are independent here (no frame needs), so each is ready.
+  const int64_t bad = s.add_worker("bad", "host", "1.0", 1), good = s.add_worker("good", "host", "1.0", 1);
+  ASSERT_EQ(kBlocklistFailures, 3);
+  for (int i = 0; i < kBlocklistFailures; ++i) {
+    const Claim c = *s.claim_next(bad);
+    EXPECT_EQ(c.task.job, job);
+    const FailOutcome o = s.fail_attempt(c.task.id, c.attempt, "out of memory");
+    EXPECT_EQ(o.worker_blocklisted, i + 1 == kBlocklistFailures) << i;
+    EXPECT_FALSE(o.task_failed);
+  }
+  const int64_t last = s.tasks(job)[3].id;
+  EXPECT_FALSE(s.may_run(last, bad));  // never tried it, but blocklisted for its job
+  EXPECT_TRUE(s.may_run(last, good));
+  const Claim c = *s.claim_next(bad);  // only the other job is left for it
+  EXPECT_EQ(c.task.job, other);
+  EXPECT_EQ(s.claim_next(good)->task.job, job);
+}
+
+TEST_F(TaskStoreTest, FailAttemptRefusesAnAttemptThatIsNotTheTasksRunningOne) {
+  TaskStore s(path_);
+  const int64_t job = s.add_job(make_job(2, 1), {level_task(0, 0, 2)});
+  const int64_t w = s.add_worker("w", "host", "1.0", 1);
+  const Claim c = *s.claim_next(w);
+  s.release_task(c.task.id, "lost");
+  const Claim again = *s.claim_next(w);
+  EXPECT_EQ(store_error_of([&] { s.fail_attempt(c.task.id, c.attempt, "late"); }),
+            path_ + ": fail_attempt: attempt " + std::to_string(c.attempt) + " is not task " +
+                std::to_string(c.task.id) + "'s running attempt");
+  EXPECT_EQ(s.fail_attempt(again.task.id, again.attempt, "now").workers_failed, 1);
+  (void)job;
+}
+
+TEST_F(TaskStoreTest, FrameDataAndTheHierarchyRoundTripBitForBit) {
+  TaskStore s(path_);
+  const int64_t job = s.add_job(make_job(4, 2), {level_task(0, 0, 4)});
+  FrameData d;
+  d.positions = {0.0, -0.0, 1e-310, std::numeric_limits<double>::max(), -1.5, 3.25};
+  d.stats = {{"newton_iterations", 7.0}, {"min_contact_distance", std::numeric_limits<double>::infinity()},
+             {"energy_bending", std::numeric_limits<double>::quiet_NaN()}};
+  d.center_of_mass = {0.5, 0.25, -0.125};
+  d.kappa = 1.25e9;
+  s.record_frame(job, {1, 3}, d);
+  s.record_frame(job, {0, 2}, FrameData{});
+  const std::optional<FrameData> got = s.frame_data(job, {1, 3});
+  ASSERT_TRUE(got.has_value());
+  ASSERT_EQ(got->positions.size(), d.positions.size());
+  EXPECT_EQ(std::memcmp(got->positions.data(), d.positions.data(), sizeof(double) * d.positions.size()), 0);
+  ASSERT_EQ(got->stats.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(got->stats[i].first, d.stats[i].first);
+    EXPECT_EQ(std::memcmp(&got->stats[i].second, &d.stats[i].second, sizeof(double)), 0) << d.stats[i].first;
+  }
+  EXPECT_EQ(got->center_of_mass, d.center_of_mass);
+  EXPECT_EQ(got->kappa, d.kappa);
+  const std::optional<FrameData> empty = s.frame_data(job, {0, 2});
+  ASSERT_TRUE(empty.has_value());
+  EXPECT_TRUE(empty->positions.empty() && empty->stats.empty() && empty->center_of_mass.empty() && !empty->kappa);
+  EXPECT_FALSE(s.frame_data(job, {0, 3}).has_value());
+  const std::vector<FrameKey> keys = s.frame_keys(job);
+  ASSERT_EQ(keys.size(), 2u);
+  EXPECT_EQ(join(keys[0].level, keys[0].frame, keys[1].level, keys[1].frame), join(0, 2, 1, 3));
+
+  const std::string blob("\x89HDF\r\n\x1a\n\0\0\xff", 11);
+  s.store_hierarchy(job, "9f86", blob);
+  EXPECT_EQ(s.hierarchy_blob(job), blob);
+  EXPECT_EQ(s.job(job).hierarchy_hash, "9f86");
+  EXPECT_EQ(store_error_of([&] { s.hierarchy_blob(job + 1); }),
+            path_ + ": job " + std::to_string(job + 1) + " has no stored hierarchy");
+}
+
+TEST_F(TaskStoreTest, RecoveryAfterARestartReleasesRunningTasksAndLosesEveryWorker) {
+  int64_t job = 0, running = 0, attempt = 0;
+  {
+    TaskStore s(path_);
+    job = s.add_job(make_job(4, 1), {level_task(0, 0, 2), level_task(0, 2, 4)});
+    const int64_t w = s.add_worker("w", "host", "1.0", 1);
+    s.finish_task(s.claim_next(w)->task.id);
+    const Claim c = *s.claim_next(w);
+    running = c.task.id;
+    attempt = c.attempt;
+  }  // the scheduler dies with the attempt running
+  TaskStore s(path_);
+  const std::vector<TaskRow> released = s.recover_after_restart();
+  ASSERT_EQ(released.size(), 1u);
+  EXPECT_EQ(released[0].id, running);
+  EXPECT_EQ(released[0].attempt, attempt);
+  EXPECT_EQ(states_of(s, job), "done ready");
+  EXPECT_EQ(raw_value(path_, "SELECT outcome FROM attempts WHERE id = ?1", attempt), "scheduler restarted");
+  EXPECT_EQ(s.workers()[0].state, "lost");
+  EXPECT_EQ(s.job(job).state, JobState::running);
+  EXPECT_TRUE(s.recover_after_restart().empty());
 }
 
 }  // namespace

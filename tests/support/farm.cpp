@@ -29,16 +29,20 @@ json parse_json(const RunResult& r) {
 
 Farm::Farm(const std::string& dir, const FarmOptions& options) : dir_(dir), options_(options) {
   start_scheduler();
-  for (int k = 1; k <= options.workers; ++k) {
-    const std::string name = "w" + std::to_string(k);
-    worker_logs_.push_back(dir + "/worker-" + name + ".log");
-    workers_.emplace_back();
-    // --scratch inside the test's folder: the default /tmp/pd-worker-<pid> outlives a killed worker.
-    Args argv = {PD_WORKER_BINARY, "--connect", workers_endpoint_, "--name", name, "--scratch", dir + "/scratch-" + name};
-    argv.insert(argv.end(), options.worker_args.begin(), options.worker_args.end());
-    workers_.back().start(argv, {}, worker_logs_.back(), worker_logs_.back());
-  }
+  for (int k = 1; k <= options.workers; ++k) add_worker(options.worker_args);
   if (options.wait_for_workers) wait_for_idle_workers(options.workers, 20s);
+}
+
+int Farm::add_worker(const Args& args) {
+  const int k = static_cast<int>(workers_.size()) + 1;
+  const std::string name = "w" + std::to_string(k);
+  worker_logs_.push_back(dir_ + "/worker-" + name + ".log");
+  workers_.emplace_back();
+  // --scratch inside the test's folder: the default /tmp/pd-worker-<pid> outlives a killed worker.
+  Args argv = {PD_WORKER_BINARY, "--connect", workers_endpoint_, "--name", name, "--scratch", dir_ + "/scratch-" + name};
+  argv.insert(argv.end(), args.begin(), args.end());
+  workers_.back().start(argv, {}, worker_logs_.back(), worker_logs_.back());
+  return k;
 }
 
 void Farm::start_scheduler() {
@@ -172,6 +176,21 @@ void wait_until_done(const Farm& farm, int64_t job, std::chrono::milliseconds ti
 void fetch(const Farm& farm, int64_t job, const std::string& out) {
   const RunResult r = farm.pd({"fetch", std::to_string(job), "--out", out}, 60s);
   if (r.exit_code != 0) throw std::runtime_error("pd fetch failed: " + r.describe());
+}
+
+Process start_reference(const std::string& scene, const std::string& out, int frames) {
+  Process p;
+  p.start({PD_BINARY, "simulate", scene, "--mode", "progressive", "--frames", std::to_string(frames), "--quiet",
+           "--out", out},
+          {}, out + ".log", out + ".log");
+  return p;
+}
+
+void finish_reference(Process& p, const std::string& out, std::chrono::milliseconds timeout) {
+  const auto code = p.wait_for_exit(timeout);
+  if (code != 0)
+    throw std::runtime_error("pd simulate " + (code ? "exited " + std::to_string(*code) : "timed out") + ":\n" +
+                             file_tail(out + ".log"));
 }
 
 bool same_bits(const Positions& a, const Positions& b) {

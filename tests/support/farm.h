@@ -63,6 +63,9 @@ class Farm {
   // returns once it prints its listening line.
   void start_scheduler();
 
+  // Starts one more worker w<k> (k = workers so far + 1) with `args` added; returns k.
+  int add_worker(const Args& args = {});
+
   // Waits until `pd workers --json` lists n workers idle; runtime_error after `timeout`.
   void wait_for_idle_workers(int n, std::chrono::milliseconds timeout) const;
 
@@ -101,6 +104,11 @@ nlohmann::json job_status(const Farm& farm, int64_t job);
 void wait_until_done(const Farm& farm, int64_t job, std::chrono::milliseconds timeout);
 // pd fetch JOB --out OUT.
 void fetch(const Farm& farm, int64_t job, const std::string& out);
+
+// `pd simulate SCENE --mode progressive --frames N --out OUT`, started now to run beside the farm;
+// finish_reference waits for it (runtime_error with its log when it fails or times out).
+Process start_reference(const std::string& scene, const std::string& out, int frames);
+void finish_reference(Process& p, const std::string& out, std::chrono::milliseconds timeout);
 
 bool same_bits(const Positions& a, const Positions& b);
 // Frames first..last of `level` equal bit for bit in both files (and the level's mesh too).
