@@ -48,11 +48,20 @@ int compare(const CompareArgs& args);
 
 // ---------------------------------------------------------------------------------------------------
 // Farm commands (farm_commands.cpp, run_command.cpp). `farm` is the scheduler's client endpoint from
-// --farm; empty: $PD_FARM, else tcp://127.0.0.1:7401 (farm_client.h). Numbers left at 0 mean "the
-// scene's value" (levels, frames) or "the scheduler's default" (preview_chunk), as in SubmitJob.
+// --farm; empty: $PD_FARM, else tcp://127.0.0.1:7401 (farm_client.h). `keys` are the CURVE key files
+// of --server-key and --key. Numbers left at 0 mean "the scene's value" (levels, frames) or "the
+// scheduler's default" (preview_chunk), as in SubmitJob.
+
+// --server-key FILE (the scheduler's PREFIX.pub) and --key FILE (this client's pair, from pd keys):
+// both or neither; a scheduler beyond loopback answers only clients with both (farm/curve.h).
+struct FarmKeyFiles {
+  std::string server_key;
+  std::string key;
+};
 
 struct SubmitArgs {
   std::string farm;
+  FarmKeyFiles keys;
   std::string scene;
   bool preview_only = false;
   int levels = 0;
@@ -67,6 +76,7 @@ int submit(const SubmitArgs& args);
 
 struct StatusArgs {
   std::string farm;
+  FarmKeyFiles keys;
   int64_t job = 0;         // 0: every job
   bool json = false;       // print protocol::to_json_text of the reply
   bool watch = false;      // redraw every `interval` until the shown jobs end
@@ -77,6 +87,7 @@ int status(const StatusArgs& args);
 
 struct FetchArgs {
   std::string farm;
+  FarmKeyFiles keys;
   int64_t job = 0;
   std::string out;
   bool json = false;       // print {"job", "file", "bytes"}
@@ -86,6 +97,7 @@ int fetch(const FetchArgs& args);
 // pd cancel JOB, pd refine JOB [--subsets K] and pd requeue JOB.
 struct JobActionArgs {
   std::string farm;
+  FarmKeyFiles keys;
   int64_t job = 0;
   int subsets = 1;         // refine only
   bool json = false;       // print {"job", "message"}
@@ -96,6 +108,7 @@ int requeue(const JobActionArgs& args);
 
 struct WorkersArgs {
   std::string farm;
+  FarmKeyFiles keys;
   bool json = false;
 };
 int workers(const WorkersArgs& args);
@@ -113,5 +126,11 @@ struct RunArgs {
   std::string keep_farm;   // farm folder to use and keep; empty: a temporary one, removed at the end
 };
 int run(const RunArgs& args);
+
+// pd keys PREFIX: writes a new CURVE key pair to PREFIX.key (mode 0600) and PREFIX.pub (keys_command.cpp).
+struct KeysArgs {
+  std::string prefix;
+};
+int keys(const KeysArgs& args);
 
 }  // namespace pd::cli

@@ -41,8 +41,9 @@ std::string farm_endpoint(const std::string& option) {
   return kDefaultFarmEndpoint;
 }
 
-FarmClient::FarmClient(std::string endpoint, std::chrono::milliseconds timeout)
-    : endpoint_(std::move(endpoint)), timeout_(timeout), context_(1) {
+FarmClient::FarmClient(std::string endpoint, std::chrono::milliseconds timeout,
+                       std::optional<farm::CurveClientKeys> keys)
+    : endpoint_(std::move(endpoint)), timeout_(timeout), keys_(std::move(keys)), context_(1) {
   connect();
 }
 
@@ -51,6 +52,7 @@ void FarmClient::connect() {
   farm::configure_socket(socket_);
   // A DEALER with no peer blocks on send; bound that by the same timeout as the reply.
   socket_.set(zmq::sockopt::sndtimeo, static_cast<int>(timeout_.count()));
+  if (keys_) farm::apply_curve_client(socket_, *keys_);
   try {
     socket_.connect(endpoint_);
   } catch (const zmq::error_t& e) {
@@ -60,8 +62,14 @@ void FarmClient::connect() {
 }
 
 protocol::Reply FarmClient::request(const protocol::Request& request) {
-  const std::string no_answer = "farm " + endpoint_ + ": no answer within " + seconds_text(timeout_) +
-                                " (is pd-scheduler running? set --farm or PD_FARM)";
+  // A CURVE scheduler answers a peer it refuses with nothing at all: say so where keys may be why.
+  const std::string hint =
+      keys_ ? "is pd-scheduler running, and does its --authorized-keys list this client's public key?"
+            : (farm::is_loopback_endpoint(endpoint_)
+                   ? "is pd-scheduler running?"
+                   : "is pd-scheduler running? beyond loopback it answers only clients with --server-key and --key;");
+  const std::string no_answer =
+      "farm " + endpoint_ + ": no answer within " + seconds_text(timeout_) + " (" + hint + " set --farm or PD_FARM)";
   std::optional<protocol::Parts> parts;
   const auto start = std::chrono::steady_clock::now();
   try {

@@ -2,11 +2,13 @@
 // The pd client's side of the farm protocol: one DEALER socket to the scheduler's client endpoint,
 // one request and exactly one reply at a time (protocol/protocol.h, "Requests", "Replies").
 #include <chrono>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
 #include <zmq.hpp>
 
+#include "farm/curve.h"
 #include "protocol/protocol.h"
 
 namespace pd::cli {
@@ -27,12 +29,14 @@ class Interrupted : public std::runtime_error {
 
 class FarmClient {
  public:
-  // Connects (lazily, as ZeroMQ does) a fresh DEALER socket to `endpoint`. A malformed endpoint
-  // throws InputError naming it.
-  explicit FarmClient(std::string endpoint, std::chrono::milliseconds timeout = std::chrono::seconds(5));
+  // Connects (lazily, as ZeroMQ does) a fresh DEALER socket to `endpoint`, a CURVE client with
+  // `keys` when given (farm/curve.h). A malformed endpoint throws InputError naming it.
+  explicit FarmClient(std::string endpoint, std::chrono::milliseconds timeout = std::chrono::seconds(5),
+                      std::optional<farm::CurveClientKeys> keys = std::nullopt);
 
   // Sends `request` and waits up to the timeout for its reply. Throws InputError when
-  //   no reply comes: "farm <endpoint>: no answer within 5 s (is pd-scheduler running? set --farm or PD_FARM)";
+  //   no reply comes: "farm <endpoint>: no answer within 5 s (is pd-scheduler running? set --farm or PD_FARM)",
+  //     with a word on keys when they may be why (a CURVE scheduler gives a peer it refuses nothing);
   //   the reply is an ErrorReply: its message, as the scheduler wrote it (e.g. "no job 17");
   //   the reply does not decode: "farm <endpoint>: bad reply: <ProtocolError>".
   // Throws Interrupted on EINTR. After a timeout or interruption the socket is replaced, so a late
@@ -55,6 +59,7 @@ class FarmClient {
 
   std::string endpoint_;
   std::chrono::milliseconds timeout_;
+  std::optional<farm::CurveClientKeys> keys_;
   zmq::context_t context_;
   zmq::socket_t socket_;
 };

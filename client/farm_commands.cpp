@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "farm/curve.h"
 #include "farm_client.h"
 #include "progress.h"
 #include "util/input_error.h"
@@ -97,6 +98,12 @@ int wait_exit_code(const protocol::StatusReply& reply, int64_t job) {
   return 1;
 }
 
+// A client of the farm that --farm names, with the CURVE keys of --server-key and --key.
+FarmClient farm_client_for(const std::string& farm, const FarmKeyFiles& keys,
+                           std::chrono::milliseconds timeout = std::chrono::seconds(5)) {
+  return FarmClient(farm_endpoint(farm), timeout, farm::read_client_keys(keys.server_key, keys.key));
+}
+
 std::string padded(const std::string& s, std::size_t width) {
   return s.size() >= width ? s : s + std::string(width - s.size(), ' ');
 }
@@ -113,7 +120,7 @@ int submit(const SubmitArgs& args) {
   job.frames = args.frames;
   job.preview_chunk = args.preview_chunk;
   job.hessian = args.hessian;
-  FarmClient client(farm_endpoint(args.farm));
+  FarmClient client = farm_client_for(args.farm, args.keys);
   const protocol::Submitted submitted = client.request_as<protocol::Submitted>(job);
   if (args.json) print_json({{"job", submitted.job}});
   else std::printf("%lld\n", static_cast<long long>(submitted.job));
@@ -122,7 +129,7 @@ int submit(const SubmitArgs& args) {
 
 int status(const StatusArgs& args) {
   if (args.wait && args.job == 0) throw InputError("--wait: needs a JOB (the job to wait for)");
-  FarmClient client(farm_endpoint(args.farm));  // one socket for every poll of a --watch or --wait loop
+  FarmClient client = farm_client_for(args.farm, args.keys);  // one socket for every poll of a --watch or --wait loop
   const bool tty = isatty(fileno(stdout)) != 0;
   const auto interval = std::chrono::duration<double>(args.interval);
   for (;;) {
@@ -147,14 +154,14 @@ int status(const StatusArgs& args) {
 int fetch(const FetchArgs& args) {
   check_output_path(args.out);
   // A whole job file (up to protocol::kMaxMessageBytes) may take longer than a status reply.
-  FarmClient client(farm_endpoint(args.farm), std::chrono::seconds(60));
+  FarmClient client = farm_client_for(args.farm, args.keys, std::chrono::seconds(60));
   const std::size_t bytes = fetch_to_file(client, args.job, args.out);
   if (args.json) print_json({{"job", args.job}, {"file", args.out}, {"bytes", bytes}});
   return 0;
 }
 
 int cancel(const JobActionArgs& args) {
-  FarmClient client(farm_endpoint(args.farm));
+  FarmClient client = farm_client_for(args.farm, args.keys);
   const auto accepted = client.request_as<protocol::Accepted>(protocol::CancelJob{args.job});
   if (args.json) print_json({{"job", accepted.job}, {"message", accepted.message}});
   else std::printf("job %lld: %s\n", static_cast<long long>(accepted.job),
@@ -163,7 +170,7 @@ int cancel(const JobActionArgs& args) {
 }
 
 int refine(const JobActionArgs& args) {
-  FarmClient client(farm_endpoint(args.farm));
+  FarmClient client = farm_client_for(args.farm, args.keys);
   const auto accepted = client.request_as<protocol::Accepted>(protocol::RefineJob{args.job, args.subsets});
   if (args.json) print_json({{"job", accepted.job}, {"message", accepted.message}});
   else std::printf("job %lld: %s\n", static_cast<long long>(accepted.job),
@@ -172,7 +179,7 @@ int refine(const JobActionArgs& args) {
 }
 
 int requeue(const JobActionArgs& args) {
-  FarmClient client(farm_endpoint(args.farm));
+  FarmClient client = farm_client_for(args.farm, args.keys);
   const auto accepted = client.request_as<protocol::Accepted>(protocol::RequeueJob{args.job});
   if (args.json) print_json({{"job", accepted.job}, {"message", accepted.message}});
   else std::printf("job %lld: %s\n", static_cast<long long>(accepted.job), accepted.message.c_str());
@@ -180,7 +187,7 @@ int requeue(const JobActionArgs& args) {
 }
 
 int workers(const WorkersArgs& args) {
-  FarmClient client(farm_endpoint(args.farm));
+  FarmClient client = farm_client_for(args.farm, args.keys);
   const auto reply = client.request_as<protocol::WorkersReply>(protocol::WorkersRequest{});
   if (args.json) {
     print_text_block(protocol::to_json_text(reply));

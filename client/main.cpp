@@ -1,5 +1,5 @@
-// pd: the command-line client. Local commands (simulate, export, hierarchy, compare) run in this process; the farm
-// commands (submit, status, fetch, cancel, refine, workers) talk to a pd-scheduler, and pd run starts a farm of
+// pd: the command-line client. Local commands (simulate, export, hierarchy, compare, keys) run in this process; the
+// farm commands (submit, status, fetch, cancel, refine, workers) talk to a pd-scheduler, and pd run starts a farm of
 // its own on this machine for one job.
 #include <cstdio>
 #include <exception>
@@ -70,14 +70,21 @@ CLI::Validator positive_seconds() {
       "SECONDS>0");
 }
 
+// --farm, --server-key and --key of one farm command.
+void add_farm_options(CLI::App* command, std::string& farm, pd::cli::FarmKeyFiles& keys) {
+  command->add_option("--farm", farm, "Scheduler's client endpoint (default: $PD_FARM, else tcp://127.0.0.1:7401)");
+  command->add_option("--server-key", keys.server_key,
+                      "The scheduler's public key file (PREFIX.pub); with --key, for a scheduler beyond loopback");
+  command->add_option("--key", keys.key, "This client's key pair (PREFIX.key from pd keys); with --server-key");
+}
+
 void add_farm_commands(CLI::App& app, FarmCommands& f) {
-  const std::string farm_help = "Scheduler's client endpoint (default: $PD_FARM, else tcp://127.0.0.1:7401)";
   const std::string job_help = "Job id (as pd submit printed it)";
 
   f.submit = app.add_subcommand("submit", "Send a scene to the farm as a progressive job; prints the job id");
   f.submit->add_option("scene", f.sub.scene, "Scene file (JSON); checked here first, as pd simulate checks it")
       ->required();
-  f.submit->add_option("--farm", f.sub.farm, farm_help);
+  add_farm_options(f.submit, f.sub.farm, f.sub.keys);
   f.submit->add_flag("--preview-only", f.sub.preview_only,
                      "Only the preview (level 0); add the rest later with pd refine");
   f.submit->add_option("--levels", f.sub.levels, "Hierarchy levels instead of the scene's")->check(at_least_one());
@@ -93,7 +100,7 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
 
   f.status = app.add_subcommand("status", "Progress of one job, or of every job");
   f.status->add_option("job", f.st.job, job_help + "; without it every job")->check(at_least_one());
-  f.status->add_option("--farm", f.st.farm, farm_help);
+  add_farm_options(f.status, f.st.farm, f.st.keys);
   f.status->add_flag("--json", f.st.json, "Print the reply as JSON");
   f.status->add_flag("--watch", f.st.watch, "Redraw every --interval until the job(s) shown end");
   f.status->add_flag("--wait", f.st.wait, "Block until JOB ends, print it; exit 0 only when it is done");
@@ -103,27 +110,27 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
   f.fetch = app.add_subcommand("fetch", "Download a job's frame file (as stored so far)");
   f.fetch->add_option("job", f.fe.job, job_help)->required()->check(at_least_one());
   f.fetch->add_option("--out,-o", f.fe.out, "Frame file to write (HDF5)")->required();
-  f.fetch->add_option("--farm", f.fe.farm, farm_help);
+  add_farm_options(f.fetch, f.fe.farm, f.fe.keys);
   f.fetch->add_flag("--json", f.fe.json, "Print {\"job\", \"file\", \"bytes\"}");
 
   f.cancel = app.add_subcommand("cancel", "Cancel a job: its running tasks stop, no frame is added");
   f.cancel->add_option("job", f.ca.job, job_help)->required()->check(at_least_one());
-  f.cancel->add_option("--farm", f.ca.farm, farm_help);
+  add_farm_options(f.cancel, f.ca.farm, f.ca.keys);
   f.cancel->add_flag("--json", f.ca.json, "Print {\"job\", \"message\"}");
 
   f.refine = app.add_subcommand("refine", "Add the refinement levels to a preview-only job");
   f.refine->add_option("job", f.re.job, job_help)->required()->check(at_least_one());
   f.refine->add_option("--subsets", f.re.subsets, "Time subsets per refinement level")->check(at_least_one());
-  f.refine->add_option("--farm", f.re.farm, farm_help);
+  add_farm_options(f.refine, f.re.farm, f.re.keys);
   f.refine->add_flag("--json", f.re.json, "Print {\"job\", \"message\"}");
 
   f.requeue = app.add_subcommand("requeue", "Retry a failed job: its failed and blocked tasks run again");
   f.requeue->add_option("job", f.rq.job, job_help)->required()->check(at_least_one());
-  f.requeue->add_option("--farm", f.rq.farm, farm_help);
+  add_farm_options(f.requeue, f.rq.farm, f.rq.keys);
   f.requeue->add_flag("--json", f.rq.json, "Print {\"job\", \"message\"}");
 
   f.workers = app.add_subcommand("workers", "The workers the scheduler knows, one line each");
-  f.workers->add_option("--farm", f.wo.farm, farm_help);
+  add_farm_options(f.workers, f.wo.farm, f.wo.keys);
   f.workers->add_flag("--json", f.wo.json, "Print the reply as JSON");
 
   f.run = app.add_subcommand("run", "Run a scene as a job on a farm of N workers started on this machine");
@@ -190,6 +197,11 @@ int main(int argc, char** argv) {
   compare->add_option("other", cmp.other, "A second frame file of the same scene (e.g. a direct run)");
   compare->add_option("--csv", cmp.csv, "CSV file to write (default FILE.compare.csv)");
 
+  pd::cli::KeysArgs keys_args;
+  auto* keys = app.add_subcommand(
+      "keys", "Write a new CURVE key pair: PREFIX.key (--key of a worker or client; mode 0600) and PREFIX.pub");
+  keys->add_option("prefix", keys_args.prefix, "Path prefix of the two files, e.g. keys/w1")->required();
+
   pd::cli::PlanArgs plan_args;
   CLI::App* plan = pd::cli::add_plan_subcommand(app, plan_args);
 
@@ -215,6 +227,7 @@ int main(int argc, char** argv) {
     if (*hierarchy) return pd::cli::hierarchy(hier);
     if (*compare) return pd::cli::compare(cmp);
     if (*plan) return pd::cli::plan(plan_args);
+    if (*keys) return pd::cli::keys(keys_args);
     if (const int code = farm.dispatch(); code >= 0) return code;
   } catch (const pd::InputError& e) {
     std::fprintf(stderr, "pd: error: %s\n", e.what());

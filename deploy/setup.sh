@@ -15,6 +15,7 @@ PACKAGES=(
   libhdf5-dev            # frame store
   libgtest-dev           # tests
   libcli11-dev           # the pd command line
+  iproute2               # ip netns + veth: the CURVE test on a non-loopback address (tests/integration/)
 )
 
 missing=()

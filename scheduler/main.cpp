@@ -1,7 +1,8 @@
 // pd-scheduler: the farm's one scheduler. Owns FARM_DIR (farm.sqlite, jobs/<job>.h5), binds a
-// ROUTER for workers and one for clients (loopback by default), prints the bound endpoints as one
-// JSON line on stdout (so a script or `pd run` can use port 0), and logs one JSON line per event
-// on stderr.
+// ROUTER for workers and one for clients (loopback by default; any other address only with CURVE
+// keys, scheduler/security.h), prints the bound endpoints as one JSON line on stdout (so a script or
+// `pd run` can use port 0), and logs one JSON line per event on stderr.
+// `pd-scheduler --generate-keys PREFIX` only writes a key pair (farm/curve.h) and exits.
 #include <atomic>
 #include <csignal>
 #include <memory>
@@ -11,8 +12,10 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "farm/messaging.h"
+#include "farm/curve.h"
 #include "scheduler/scheduler.h"
+#include "scheduler/security.h"
+#include "util/input_error.h"
 
 namespace {
 
@@ -25,7 +28,9 @@ void on_signal(int) { g_stop = true; }
 int main(int argc, char** argv) {
   CLI::App app{"pd-scheduler: dispatches progressive-dynamics jobs to pd-worker processes"};
   pd::scheduler::SchedulerOptions options;
-  app.add_option("--dir", options.dir, "Farm folder: farm.sqlite and jobs/<job>.h5 (created when missing)")->required();
+  std::string generate_prefix;
+  app.add_option("--dir", options.dir,
+                 "Farm folder: farm.sqlite and jobs/<job>.h5 (created when missing); required unless --generate-keys");
   app.add_option("--workers-endpoint", options.workers_endpoint,
                  "Where workers connect (port 0: a free port, printed on start)")
       ->capture_default_str();
@@ -35,21 +40,34 @@ int main(int argc, char** argv) {
   app.add_option("--heartbeat-ms", options.heartbeat_ms, "Heartbeat period; 3 missed ones lose a worker")
       ->check(CLI::Range(50, 60000))
       ->capture_default_str();
+  app.add_option("--key", options.key_file,
+                 "CURVE key pair of this scheduler (PREFIX.key from --generate-keys); needed beyond loopback");
+  app.add_option("--authorized-keys", options.authorized_keys_file,
+                 "Public keys of the workers and clients to admit, one per line; needed with --key");
+  app.add_option("--generate-keys", generate_prefix,
+                 "Write a new key pair to PREFIX.key (mode 0600) and PREFIX.pub, then exit");
   try {
     app.parse(argc, argv);
+    if (generate_prefix.empty() && options.dir.empty()) throw CLI::RequiredError("--dir");
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);
     std::fprintf(stderr, "pd-scheduler: error: %s\nRun with --help for more information.\n", e.what());
     return 2;
   }
-  for (const std::string* e : {&options.workers_endpoint, &options.clients_endpoint}) {
-    if (!pd::farm::is_loopback_endpoint(*e)) {
-      std::fprintf(stderr,
-                   "pd-scheduler: error: %s is not a loopback address; binding beyond loopback needs CURVE keys, "
-                   "which this version does not support yet\n",
-                   e->c_str());
-      return 2;
+  try {
+    if (!generate_prefix.empty()) {
+      const pd::farm::CurveKeyPair pair = pd::farm::generate_key_pair();
+      pd::farm::write_key_pair(generate_prefix, pair);
+      std::printf("wrote %s.key (the scheduler's --key; keep it private) and %s.pub (for workers' and clients' "
+                  "--server-key)\npublic key: %s\n",
+                  generate_prefix.c_str(), generate_prefix.c_str(), pair.public_key.c_str());
+      return 0;
     }
+    // Before the farm folder or its database is created: a refused start leaves nothing behind.
+    pd::scheduler::check_security_options(options);
+  } catch (const pd::InputError& e) {
+    std::fprintf(stderr, "pd-scheduler: error: %s\n", e.what());
+    return 2;
   }
   struct sigaction sa = {};
   sa.sa_handler = on_signal;
@@ -58,6 +76,9 @@ int main(int argc, char** argv) {
   std::unique_ptr<pd::scheduler::Scheduler> scheduler;
   try {
     scheduler = std::make_unique<pd::scheduler::Scheduler>(options);
+  } catch (const pd::InputError& e) {
+    std::fprintf(stderr, "pd-scheduler: error: %s\n", e.what());
+    return 2;
   } catch (const zmq::error_t& e) {
     std::fprintf(stderr, "pd-scheduler: error: cannot bind %s or %s: %s\n", options.workers_endpoint.c_str(),
                  options.clients_endpoint.c_str(), e.what());
@@ -70,7 +91,8 @@ int main(int argc, char** argv) {
     const nlohmann::json listening = {{"event", "listening"},
                                       {"workers", scheduler->workers_endpoint()},
                                       {"clients", scheduler->clients_endpoint()},
-                                      {"dir", options.dir}};
+                                      {"dir", options.dir},
+                                      {"curve", !options.key_file.empty()}};
     std::printf("%s\n", listening.dump().c_str());
     std::fflush(stdout);
     scheduler->run(g_stop);

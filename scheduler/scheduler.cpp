@@ -10,6 +10,7 @@
 
 #include "farm/messaging.h"
 #include "farm/task_graph.h"
+#include "scheduler/security.h"
 
 namespace pd::scheduler {
 
@@ -43,6 +44,8 @@ Scheduler::Scheduler(const SchedulerOptions& options)
     // A reply to a peer that is gone fails loudly (EHOSTUNREACH) instead of vanishing.
     s->set(zmq::sockopt::router_mandatory, 1);
   }
+  // CURVE and the ZAP handler before binding, or refusal of a non-loopback endpoint without keys.
+  zap_ = secure_sockets(ctx_, options_, {&workers_, &clients_});
   workers_.bind(options.workers_endpoint);
   clients_.bind(options.clients_endpoint);
   recover();

@@ -18,6 +18,7 @@
 
 #include <zmq.hpp>
 
+#include "farm/curve.h"
 #include "protocol/protocol.h"
 #include "scheduler/job_files.h"
 #include "store/task_store.h"
@@ -29,6 +30,9 @@ struct SchedulerOptions {
   std::string workers_endpoint = "tcp://127.0.0.1:7400";
   std::string clients_endpoint = "tcp://127.0.0.1:7401";
   int heartbeat_ms = 1000;
+  // CURVE (scheduler/security.h): this scheduler's key pair and the public keys it admits; both or
+  // neither, and both whenever an endpoint is not loopback.
+  std::string key_file, authorized_keys_file;
 };
 
 constexpr int kLiveness = 3;
@@ -109,6 +113,11 @@ class Scheduler {
 
   SchedulerOptions options_;
   zmq::context_t ctx_;
+  // The ZAP handler (null without CURVE). Declared between ctx_ and the sockets so that it is
+  // destroyed after them (while a CURVE socket is open without its handler, libzmq lets handshakes
+  // through unchecked) and before ctx_ (whose termination waits for the handler's socket to close).
+  // Every socket has LINGER 0, so none of these closings can block.
+  std::unique_ptr<farm::ZapAuthenticator> zap_;
   zmq::socket_t workers_, clients_;
   std::unique_ptr<TaskStore> store_;
   JobFiles files_;

@@ -11,6 +11,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include "farm/curve.h"
+#include "farm/messaging.h"
+#include "util/input_error.h"
 #include "util/process_setup.h"
 #include "worker/worker.h"
 
@@ -33,6 +36,9 @@ int main(int argc, char** argv) {
   app.add_option("--fail-level", options.fail_level,
                  "Fault injection for tests: every task of this level fails with an 'injected failure' message")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--server-key", options.server_key_file,
+                 "The scheduler's public key file (its PREFIX.pub); with --key, for a scheduler beyond loopback");
+  app.add_option("--key", options.key_file, "This worker's key pair (PREFIX.key from pd keys); with --server-key");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -53,6 +59,19 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "pd-worker: error: --connect: expected tcp://HOST:PORT or ipc://PATH, got '%s'\n",
                  options.endpoint.c_str());
     return 2;
+  }
+  try {
+    options.curve = pd::farm::read_client_keys(options.server_key_file, options.key_file);
+  } catch (const pd::InputError& e) {
+    std::fprintf(stderr, "pd-worker: error: %s\n", e.what());
+    return 2;
+  }
+  if (!options.curve && !pd::farm::is_loopback_endpoint(options.endpoint)) {
+    // Not refused: a tunnel can make a loopback scheduler reachable at another address.
+    std::fprintf(stderr,
+                 "pd-worker %s: no --server-key/--key for %s: a pd-scheduler beyond loopback admits CURVE workers "
+                 "only, and this one will get no answer from it\n",
+                 options.name.c_str(), options.endpoint.c_str());
   }
   struct sigaction sa = {};
   sa.sa_handler = on_signal;

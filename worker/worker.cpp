@@ -43,6 +43,13 @@ class Session {
   Session(zmq::context_t& ctx, const WorkerOptions& o, TaskRunner& runner, int wake_fd)
       : socket_(ctx, zmq::socket_type::dealer), options_(o), runner_(runner), wake_fd_(wake_fd) {
     farm::configure_socket(socket_);
+    if (o.curve) farm::apply_curve_client(socket_, *o.curve);
+    // A refused handshake (this worker's key not authorized, or no CURVE here and CURVE there) ends
+    // libzmq's session for good: the DEALER keeps no pipe and a send would block forever, out of
+    // reach of the liveness check. Bounded, the send gives up, the scheduler counts as lost after
+    // kLiveness heartbeats and the next session's fresh socket tries again (so the worker gets in
+    // once a scheduler admits its key, e.g. restarted with the key listed).
+    socket_.set(zmq::sockopt::sndtimeo, kLiveness * o.heartbeat_ms);
     socket_.connect(o.endpoint);
     protocol::Hello hello;
     hello.name = o.name;

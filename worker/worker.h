@@ -6,7 +6,10 @@
 // given it away by then) and reconnects after a backoff that doubles from 1 s to 32 s.
 #include <atomic>
 #include <chrono>
+#include <optional>
 #include <string>
+
+#include "farm/curve.h"
 
 namespace pd::worker {
 
@@ -17,6 +20,10 @@ struct WorkerOptions {
   int heartbeat_ms = 1000;  // until the scheduler's Welcome says otherwise
   // Fault injection for the farm's tests: every task of this level fails at once (-1: none).
   int fail_level = -1;
+  // CURVE: --server-key (the scheduler's .pub) and --key (this worker's pair), both or neither, read
+  // by main() into `curve` and applied to every session's socket before it connects.
+  std::string server_key_file, key_file;
+  std::optional<farm::CurveClientKeys> curve;
 };
 
 constexpr int kLiveness = 3;  // missed heartbeats before the peer counts as gone
