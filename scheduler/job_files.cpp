@@ -40,7 +40,7 @@ void check_frame_stats(const std::vector<protocol::Stat>& stats) {
   for (const auto& [name, value] : stats) {
     if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "center_of_mass")
       throw InputError("frame: stats: invalid statistic name '" + name + "'");
-    if (!seen.insert(name).second) throw InputError("frame: stats: statistic '" + name + "' appears twice");
+    if (!seen.insert(name).second) throw InputError("frame: stats: '" + name + "': statistic given twice");
   }
 }
 

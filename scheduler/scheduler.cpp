@@ -96,7 +96,8 @@ void Scheduler::event(const std::string& kind, int64_t job, int64_t task, int64_
   if (task) line["task"] = task;
   if (worker) line["worker"] = worker;
   if (!message.empty()) line["message"] = message;
-  std::fprintf(stderr, "%s\n", line.dump().c_str());
+  // replace: a message quoting a peer's bytes must not make the log line fail (invalid UTF-8 would throw).
+  std::fprintf(stderr, "%s\n", line.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
   if (persist) store_->log_event(job, task, worker, kind, message);
 }
 

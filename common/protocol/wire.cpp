@@ -71,19 +71,31 @@ std::string bad_string_path(const Json& j, const std::string& path) {
 }
 
 // Error text from the JSON parser, which quotes the bytes it read: bytes outside printable ASCII
-// become '?', so that the message can itself be sent (a Refused reason must be valid UTF-8).
+// become '?', so that the message can itself be sent (a Refused reason must be valid UTF-8), and a
+// long text is cut (the parser quotes up to the whole part: megabytes in a log line otherwise).
 std::string printable(const std::string& text) {
-  std::string out = text;
+  constexpr std::size_t kMaxShown = 200;
+  std::string out = text.size() <= kMaxShown ? text : text.substr(0, kMaxShown) + "...";
   for (char& c : out)
     if (c < 0x20 || c > 0x7e) c = '?';
   return out;
 }
 
-// A type name as messages show it: an absurdly long one (unknown anyway) is shortened.
+// A type name as messages show it: an absurdly long one (unknown anyway) is shortened, at a UTF-8
+// character boundary (a cut inside a character would make every text that quotes it invalid UTF-8,
+// which JSON encoders refuse).
 std::string shown_type(const std::string& type) {
   constexpr std::size_t kMaxShown = 64;
-  return type.size() <= kMaxShown ? type : type.substr(0, kMaxShown) + "...";
+  if (type.size() <= kMaxShown) return type;
+  std::size_t n = kMaxShown;
+  while (n > 0 && (static_cast<unsigned char>(type[n]) & 0xC0) == 0x80) --n;  // continuation bytes
+  return type.substr(0, n) + "...";
 }
+
+// Deepest nesting of arrays and objects accepted in part 0. The headers nest 3 deep; a deeper one is
+// refused while parsing, before the (recursive) JSON value is built: 100 000 levels overflowed the
+// stack.
+constexpr int kMaxDepth = 32;
 
 // Part 0 parsed: a JSON object with a string "type" and an integer "v" (not compared here). The
 // type is read first, leniently, so that a version error can name it.
@@ -95,7 +107,11 @@ Json parse_header(const Parts& parts, std::string& type) {
                         std::to_string(kMaxMessageBytes));
   Json h;
   try {
-    h = Json::parse(parts[0]);
+    h = Json::parse(parts[0], [](int depth, Json::parse_event_t, Json&) {
+      if (depth > kMaxDepth)
+        throw ProtocolError("message: part 0: JSON nested deeper than " + std::to_string(kMaxDepth) + " levels");
+      return true;
+    });
   } catch (const Json::exception& e) {
     throw ProtocolError("message: part 0 is not JSON: " + printable(e.what()));
   }

@@ -137,6 +137,30 @@ TEST(ProtocolWire, MessageRefusesBadEnvelopesNamingTheProblem) {
                 ", this program speaks " + std::to_string(kProtocolVersion));
 }
 
+// Found by the farm's fuzzer (tests/integration/fuzz_test.cpp): each of these once ended the scheduler.
+TEST(ProtocolWire, HostileHeadersGiveShortValidUtf8ErrorsAndNeverOverflowTheStack) {
+  auto open = [](const Parts& p) { return error_of([&] { wire::Message m(p); }); };
+  // A long type whose byte 64 is inside a multibyte character: cut before the character, so the
+  // error text stays valid UTF-8 (a JSON log line or a Refused reason with it would throw).
+  const std::string type = std::string(63, 'a') + "\xc3\xa9\xe2\x82\xac";  // 63 + 'e-acute' (2) + euro (3)
+  const std::string cut = open(header_only(type, kProtocolVersion + 1));
+  EXPECT_EQ(cut.substr(0, 66), std::string(63, 'a') + "...") << cut;
+  EXPECT_NO_THROW(Json(cut).dump()) << "not valid UTF-8";
+  EXPECT_NO_THROW(encode(Refused{cut}));
+  // Deep nesting is refused while parsing, before any value is built.
+  for (int depth : {33, 1000, 200000}) {
+    const std::string deep = R"({"v": 2, "type": "frame", "x": )" + std::string(depth, '[') + std::string(depth, ']') + "}";
+    EXPECT_EQ(open({deep}), "message: part 0: JSON nested deeper than 32 levels") << depth;
+  }
+  const std::string ok = R"({"v": 2, "type": "frame", "x": )" + std::string(31, '[') + std::string(31, ']') + "}";
+  EXPECT_FALSE(has(open({ok}), "nested"));
+  // The parser quotes what it read; a megabyte of it is cut to a short text.
+  const std::string unterminated = R"({"v": 2, "type": ")" + std::string(1 << 20, 'q');
+  const std::string err = open({unterminated});
+  EXPECT_TRUE(has(err, "message: part 0 is not JSON"));
+  EXPECT_LT(err.size(), 300u) << err.substr(0, 400);
+}
+
 TEST(ProtocolWire, TotalSizeIsCheckedAgainstTheLimitWhenEncodingAndDecoding) {
   Parts parts = header_only("fetch_reply");
   parts.push_back(std::string(200, 'x'));
@@ -244,7 +268,7 @@ TEST(ProtocolWire, EveryDecoderRefusesMalformedEnvelopes) {
       {{R"({"v": 1})"}, "message: field 'type': missing"},
       {{R"({"v": 1, "type": null})"}, "message: field 'type': expected a string, got null"},
       {header_only("teleport"), "teleport: unknown message type"},
-      {{std::string(100000, '[')}, "message: part 0 is not JSON"},
+      {{std::string(100000, '[')}, "message: part 0: JSON nested deeper than 32 levels"},
   };
   int checked = 0;
   for (const Decoder& d : decoders()) {
