@@ -69,12 +69,16 @@ JobFile& JobFiles::create(int64_t job, const std::string& scene_text, int frames
   const std::string building = f.path + ".tmp";
   files_.erase(job);  // closes the file a rebuild replaces
   f.writer = FrameWriter::create(building, scene_text, frames);
+  // Frames are durable in the task store; the file is flushed when read (fetch), when its job ends
+  // and when the scheduler stops (two flushes per frame were the farm's bottleneck).
+  f.writer->set_flush_each_frame(false);
   write_hierarchy(building, *h, names);
   add_hierarchy_levels(*f.writer, *h, names);
   for (std::size_t i = 0; i < count; ++i) {
     const StoredFrame s = frame(i);
     write_into(*f.writer, s.first.level, s.first.frame, s.second);
   }
+  f.writer->flush();
   // The open writer follows the file (same inode) through the rename.
   std::error_code ec;
   fs::rename(building, f.path, ec);
@@ -93,7 +97,13 @@ JobFile* JobFiles::find(int64_t job) {
   return it == files_.end() ? nullptr : &it->second;
 }
 
+void JobFiles::flush(int64_t job) {
+  JobFile* f = find(job);
+  if (f && f->writer) f->writer->flush();
+}
+
 std::string JobFiles::read_bytes(int64_t job) {
+  flush(job);
   const std::string path = path_of(job);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot read the job file");

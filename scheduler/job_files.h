@@ -3,8 +3,9 @@
 // same layout `pd simulate` writes), of which the scheduler is the only writer, and beside it
 // <job>.hierarchy.h5, the hierarchy as the hierarchy task built it (the bytes shipped to workers).
 //
-// Order of durability: the task store records a frame with its data first, then it is written and
-// flushed here (scheduler/worker_reports.cpp). A job file is (re)built whole in <job>.h5.tmp and
+// Order of durability: the task store records a frame with its data first, then it is written here
+// (scheduler/worker_reports.cpp), without a flush of its own: the file is flushed when fetched, when
+// its job ends and when the scheduler stops. A job file is (re)built whole in <job>.h5.tmp and
 // renamed over <job>.h5, so a reader never sees a half-built file; a scheduler killed while writing
 // a frame leaves a file that the next scheduler rebuilds from the store (Scheduler::recover).
 #include <cstdint>
@@ -56,7 +57,10 @@ class JobFiles {
   // The job's file, or nullptr while its hierarchy is not built.
   JobFile* find(int64_t job);
 
-  // The file's bytes as stored so far (every frame written is flushed, so this is a valid file).
+  // Flushes the job's file (frames are written without a flush each: the store has them).
+  void flush(int64_t job);
+
+  // The file's bytes as stored so far (flushed first, so this is a valid file).
   std::string read_bytes(int64_t job);
 
   std::string path_of(int64_t job) const;

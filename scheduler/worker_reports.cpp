@@ -205,7 +205,10 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskDone& m) {
         "level " + std::to_string(t.level) + " frames (" + std::to_string(t.first) + ", " + std::to_string(t.last) +
             "] in " + std::to_string(m.seconds) + " s, " + std::to_string(m.unconverged_steps) + " steps unconverged");
   end_attempt_of(*s);
-  if (store_->job(t.job).state == protocol::JobState::done) event("job_done", t.job, 0, 0, "");
+  if (store_->job(t.job).state == protocol::JobState::done) {
+    files_.flush(t.job);  // a finished job's file is complete on disk
+    event("job_done", t.job, 0, 0, "");
+  }
 }
 
 void Scheduler::on_report(const std::string& identity, protocol::TaskFailed& m) {

@@ -1,5 +1,9 @@
 #include "store/frame_store.h"
 
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -60,6 +64,108 @@ void check_stored_level(const File& f, const std::string& where, const Positions
   if (f.read_strings(d.get(), false, np, static_cast<hsize_t>(k1 - 1)) != object_names) differs(np, "object names");
 }
 
+// The names of the scalar statistics of `level` (the links of /levels/<level>/stats but
+// center_of_mass), sorted.
+std::vector<std::string> stat_names_of(const File& f, int level) {
+  const std::string name = level_name("/levels", level, "stats");
+  Handle g = f.checked(H5Gopen2(f.id.get(), name.c_str(), H5P_DEFAULT), H5Gclose, name, "missing group");
+  std::vector<std::string> out;
+  auto collect = [](hid_t, const char* link, const H5L_info_t*, void* names) -> herr_t {
+    if (std::string(link) != "center_of_mass") static_cast<std::vector<std::string>*>(names)->push_back(link);
+    return 0;
+  };
+  f.check(H5Literate(g.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &out), name, "cannot list group");
+  return out;
+}
+
+// The counts of one level that opening a file finds (and checks the datasets' shapes against).
+struct LevelCounts {
+  int num_vertices = 0, num_faces = 0, num_objects = 0;
+};
+
+// File access for writers: every object in the oldest format that can hold it, at most HDF5 1.8's, so
+// the superblock stays version 0 (what H5P_DEFAULT gives today; pinned so that it stays so). A version
+// 3 superblock (libver "latest", which SWMR needs) marks the file "open for write" in the file itself;
+// a writer killed before closing leaves the mark and every later open fails until h5clear removes it
+// (measured on HDF5 1.10.8). Version 0 has no such mark: the guard against a second writer is HDF5's
+// file lock (flock), which the kernel drops when the holding process dies.
+Handle writer_access(const File& f) {
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  f.check(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_EARLIEST, H5F_LIBVER_V18), "", "cannot set format bounds");
+  return fapl;
+}
+
+// A writer killed inside H5Fflush can leave the file longer than the allocated end its superblock
+// records (objects were written, the superblock not yet). Such a file may open and read correctly,
+// but writing on allocates from the recorded end, over stored objects: in 720 kills measured with
+// tests/store/frame_store_kill_test.cpp, 17 files opened and then failed a later write ("incorrect
+// cache entry type", "addr overflow") or read back a frame wrong after write_frame had returned; all
+// 17 were longer than recorded (as were 152 others), none of the 550 files of the recorded length
+// was. A file HDF5 closed or flushed completely ends exactly there (HDF5 truncates it to it).
+void check_closed_cleanly(const File& f) {
+  haddr_t eoa = 0;
+  f.check(H5Fget_eoa(f.id.get(), &eoa), "", "cannot get the allocated end of the file");
+  struct stat st;
+  if (fstat(f.descriptor(), &st) != 0) f.fail("", std::string("cannot stat: ") + std::strerror(errno));
+  if (static_cast<haddr_t>(st.st_size) != eoa)
+    f.fail("", "not closed cleanly by its last writer (killed while flushing?): the file has " +
+                   std::to_string(st.st_size) + " bytes but HDF5 allocated " + std::to_string(eoa) +
+                   "; writing on could overwrite stored data, so it must be rebuilt");
+}
+
+// Opens f.path (read-write if `write`) and checks what FrameReader promises: format_version, the scene
+// attribute and, for every level, that its datasets exist with consistent shapes. Returns the counts
+// per level; *num_frames gets N + 1 (from level 0's done). Throws InputError naming the object.
+std::vector<LevelCounts> open_frame_file(File& f, bool write, int* format_version, int* num_frames) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(f.path, ec)) f.fail("", "no such file");
+  htri_t is_hdf5 = H5Fis_hdf5(f.path.c_str());
+  if (is_hdf5 == 0) f.fail("", "not an HDF5 file");
+  if (is_hdf5 < 0) f.fail_h5("", "cannot read the file");
+  if (write) {
+    Handle fapl = writer_access(f);
+    f.id = f.checked(H5Fopen(f.path.c_str(), H5F_ACC_RDWR, fapl.get()), H5Fclose, "",
+                     "cannot open the HDF5 file for writing (truncated, or locked by another process?)");
+    f.close_on_exec();
+    check_closed_cleanly(f);
+  } else {
+    f.id = f.checked(H5Fopen(f.path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "",
+                     "cannot open the HDF5 file (truncated, or locked by a writer?)");
+  }
+  Handle version = f.checked(H5Aopen(f.id.get(), "format_version", H5P_DEFAULT), H5Aclose, "/@format_version",
+                             "missing attribute, not a frame file");
+  f.check(H5Aread(version.get(), H5T_NATIVE_INT, format_version), "/@format_version", "read failed");
+  if (*format_version != kFrameFormatVersion)
+    f.fail("/@format_version", "format_version " + std::to_string(*format_version) + " unsupported (expected " +
+                                   std::to_string(kFrameFormatVersion) + ")");
+  Handle scene = f.checked(H5Aopen(f.id.get(), "scene", H5P_DEFAULT), H5Aclose, "/@scene", "missing attribute");
+  f.read_strings(scene.get(), true, "/@scene", 1);  // checks that it is a string
+  Handle levels = f.checked(H5Gopen2(f.id.get(), "/levels", H5P_DEFAULT), H5Gclose, "/levels", "missing group");
+  H5G_info_t info;
+  f.check(H5Gget_info(levels.get(), &info), "/levels", "cannot list group");
+  if (info.nlinks == 0) f.fail("/levels", "the file has no levels");
+  std::vector<LevelCounts> out;
+  for (int l = 0; l < static_cast<int>(info.nlinks); ++l) {
+    Shape d;
+    LevelCounts lv;
+    f.open(level_name("/hierarchy", l, "rest_positions"), H5T_FLOAT, {-1, 3}, &d);
+    lv.num_vertices = static_cast<int>(d[0]);
+    f.open(level_name("/hierarchy", l, "faces"), H5T_INTEGER, {-1, 3}, &d);
+    lv.num_faces = static_cast<int>(d[0]);
+    f.open(level_name("/hierarchy", l, "object_offsets"), H5T_INTEGER, {-1}, &d);
+    if (d[0] < 2) f.fail(level_name("/hierarchy", l, "object_offsets"), "needs at least 2 entries");
+    lv.num_objects = static_cast<int>(d[0]) - 1;
+    const long long n = lv.num_vertices, k = lv.num_objects;
+    f.open(level_name("/hierarchy", l, "object_names"), H5T_STRING, {k});
+    f.open(level_name("/levels", l, "done"), H5T_INTEGER, {l == 0 ? -1 : *num_frames}, &d);
+    if (l == 0) *num_frames = static_cast<int>(d[0]);
+    f.open(level_name("/levels", l, "positions"), H5T_FLOAT, {*num_frames, n, 3});
+    f.open(level_name("/levels", l, "stats/center_of_mass"), H5T_FLOAT, {*num_frames, k, 3});
+    out.push_back(lv);
+  }
+  return out;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------
@@ -75,11 +181,47 @@ struct FrameWriter::Impl {
   File file;  // declared before `levels`, so the datasets are closed before the file
   int num_frames = 0;
   std::vector<Level> levels;
+  bool flush_each_frame = true;  // write_frame's crash-safe order (see the header)
 
   void require_open() const {
     if (!file.id.valid()) file.fail("", "frame file already closed");
   }
+  // The level of frame t after the range checks (and, if need_done, the check that the frame is done);
+  // `leaf` names the dataset in the errors, e.g. "/levels/1/positions: frame 3 of level 1 is not done".
+  Level& frame_level(int level, int t, const char* leaf, bool need_done) {
+    require_open();
+    const std::string object = level_name("/levels", level, leaf);
+    if (level < 0 || level >= static_cast<int>(levels.size()))
+      file.fail(object, "level out of range [0, " + std::to_string(levels.size()) + ")");
+    const std::string what = "frame " + std::to_string(t) + " of level " + std::to_string(level);
+    if (t < 0 || t >= num_frames) file.fail(object, what + " out of range [0, " + std::to_string(num_frames) + ")");
+    if (need_done && !levels[level].is_done[t]) file.fail(object, what + " is not done");
+    return levels[level];
+  }
+  // Opens the datasets of level l of an existing file (shapes checked by open_frame_file) and reads
+  // its done flags and the names of its statistics.
+  void load_level(int l, const LevelCounts& counts);
 };
+
+void FrameWriter::Impl::load_level(int l, const LevelCounts& counts) {
+  const File& f = file;
+  const long long frames = num_frames;
+  Level lv;
+  lv.num_vertices = counts.num_vertices;
+  lv.num_objects = counts.num_objects;
+  lv.positions = f.open(level_name("/levels", l, "positions"), H5T_FLOAT, {frames, lv.num_vertices, 3});
+  lv.center_of_mass = f.open(level_name("/levels", l, "stats/center_of_mass"), H5T_FLOAT, {frames, lv.num_objects, 3});
+  const std::string done = level_name("/levels", l, "done");
+  lv.done = f.open(done, H5T_INTEGER, {frames});
+  lv.is_done.assign(num_frames, 0);
+  f.io(false, lv.done.get(), done, H5T_NATIVE_UINT8, {0}, {static_cast<hsize_t>(frames)}, lv.is_done.data());
+  for (uint8_t& d : lv.is_done) d = d == 1 ? 1 : 0;  // as FrameReader: only 1 means stored
+  for (const std::string& name : stat_names_of(f, l)) {
+    check_stat_name(f, name, l);
+    lv.scalars.emplace(name, f.open(level_name("/levels", l, "stats/") + name, H5T_FLOAT, {frames}));
+  }
+  levels.push_back(std::move(lv));
+}
 
 FrameWriter::FrameWriter(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 FrameWriter::FrameWriter(FrameWriter&&) noexcept = default;
@@ -93,8 +235,10 @@ FrameWriter FrameWriter::create(const std::string& path, const std::string& scen
   f.path = path;
   if (last_frame < 0) f.fail("", "last_frame must be >= 0, got " + std::to_string(last_frame));
   impl->num_frames = last_frame + 1;
-  f.id = f.checked(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "",
+  Handle fapl = writer_access(f);
+  f.id = f.checked(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose, "",
                    "cannot create HDF5 file");
+  f.close_on_exec();
   Handle scalar(H5Screate(H5S_SCALAR), H5Sclose);
   Handle version = f.checked(H5Acreate2(f.id.get(), "format_version", H5T_STD_I32LE, scalar.get(), H5P_DEFAULT,
                                         H5P_DEFAULT), H5Aclose, "/@format_version", "cannot create attribute");
@@ -107,6 +251,16 @@ FrameWriter FrameWriter::create(const std::string& path, const std::string& scen
   f.make_group("/hierarchy");
   f.make_group("/levels");
   f.flush();
+  return FrameWriter(std::move(impl));
+}
+
+FrameWriter FrameWriter::open(const std::string& path) {
+  quiet_hdf5();
+  auto impl = std::make_unique<Impl>();
+  impl->file.path = path;
+  int version = 0;
+  const std::vector<LevelCounts> counts = open_frame_file(impl->file, true, &version, &impl->num_frames);
+  for (int l = 0; l < static_cast<int>(counts.size()); ++l) impl->load_level(l, counts[l]);
   return FrameWriter(std::move(impl));
 }
 
@@ -152,7 +306,9 @@ void FrameWriter::add_level(int level, const Positions& rest, const Faces& faces
   lv.is_done.assign(frames, 0);
   const uint8_t zero = 0;
   lv.positions = f.create(data + "/positions", H5T_IEEE_F64LE, {frames, un, 3}, {1, un, 3}, H5T_NATIVE_DOUBLE, &kNaN);
-  lv.done = f.create(data + "/done", H5T_STD_U8LE, {frames}, {}, H5T_NATIVE_UINT8, &zero);
+  // Allocated and filled now: see File::create_filled.
+  lv.done = f.create_filled(data + "/done", H5T_STD_U8LE, frames, H5T_NATIVE_UINT8, &zero);
+  f.link(lv.done, data + "/done");
   lv.center_of_mass = f.create(data + "/stats/center_of_mass", H5T_IEEE_F64LE, {frames, uk, 3}, {1, uk, 3},
                                H5T_NATIVE_DOUBLE, &kNaN);
   impl_->levels.push_back(std::move(lv));
@@ -162,6 +318,7 @@ void FrameWriter::add_level(int level, const Positions& rest, const Faces& faces
 void FrameWriter::write_frame(int level, int t, const Positions& x, const FrameStats& stats) {
   impl_->require_open();
   const File& f = impl_->file;
+  const bool flush = impl_->flush_each_frame;
   const std::string data = level_name("/levels", level);
   if (level < 0 || level >= num_levels())
     f.fail(data, "level out of range [0, " + std::to_string(num_levels()) + ")");
@@ -185,7 +342,7 @@ void FrameWriter::write_frame(int level, int t, const Positions& x, const FrameS
   uint8_t flag = 0;
   if (lv.is_done[t]) {  // rewriting a stored frame: withdraw its done flag first
     f.io(true, lv.done.get(), data + "/done", H5T_NATIVE_UINT8, {ut}, {1}, &flag);
-    f.flush();
+    if (flush) f.flush();
     lv.is_done[t] = 0;
   }
   f.io(true, lv.positions.get(), data + "/positions", H5T_NATIVE_DOUBLE, {ut, 0, 0}, {1, n, 3},
@@ -193,36 +350,66 @@ void FrameWriter::write_frame(int level, int t, const Positions& x, const FrameS
   if (com_rows != 0)
     f.io(true, lv.center_of_mass.get(), data + "/stats/center_of_mass", H5T_NATIVE_DOUBLE, {ut, 0, 0},
          {1, static_cast<hsize_t>(com_rows), 3}, const_cast<double*>(stats.center_of_mass.data()));
-  for (auto& [name, value] : scalars) {
-    const std::string ds = data + "/stats/" + name;
-    auto it = lv.scalars.find(name);
-    if (it == lv.scalars.end()) {
-      Handle h = f.create(ds, H5T_IEEE_F64LE, {static_cast<hsize_t>(impl_->num_frames)}, {}, H5T_NATIVE_DOUBLE, &kNaN);
-      it = lv.scalars.emplace(name, std::move(h)).first;
-    }
-    f.io(true, it->second.get(), ds, H5T_NATIVE_DOUBLE, {ut}, {1}, &value);
+  // A statistic new to the level: its dataset, NaN everywhere, is in the file (flushed) before a link
+  // names it, so that no kill can show unfilled storage in the frames already done.
+  std::vector<std::pair<std::string, Handle>> created;
+  for (const auto& [name, value] : scalars)
+    if (lv.scalars.count(name) == 0)
+      created.emplace_back(name, f.create_filled(data + "/stats/" + name, H5T_IEEE_F64LE,
+                                                 static_cast<hsize_t>(impl_->num_frames), H5T_NATIVE_DOUBLE, &kNaN));
+  if (flush && !created.empty()) f.flush();
+  for (auto& [name, dset] : created) {
+    f.link(dset, data + "/stats/" + name);
+    lv.scalars.emplace(name, std::move(dset));
   }
-  f.flush();  // the frame's data is on disk before its done flag is set
+  for (auto& [name, value] : scalars)
+    f.io(true, lv.scalars.at(name).get(), data + "/stats/" + name, H5T_NATIVE_DOUBLE, {ut}, {1}, &value);
+  if (flush) f.flush();  // the frame's data is on disk before its done flag is set
   flag = 1;
   f.io(true, lv.done.get(), data + "/done", H5T_NATIVE_UINT8, {ut}, {1}, &flag);
-  f.flush();
+  if (flush) f.flush();
   lv.is_done[t] = 1;
 }
 
-Positions FrameWriter::read_frame(int level, int t) const {
+void FrameWriter::set_flush_each_frame(bool on) { impl_->flush_each_frame = on; }
+
+void FrameWriter::flush() {
   impl_->require_open();
-  const File& f = impl_->file;
-  const std::string data = level_name("/levels", level, "positions");
-  if (level < 0 || level >= num_levels()) f.fail(data, "level out of range [0, " + std::to_string(num_levels()) + ")");
-  const Impl::Level& lv = impl_->levels[level];
-  const std::string what = "frame " + std::to_string(t) + " of level " + std::to_string(level);
-  if (t < 0 || t >= impl_->num_frames)
-    f.fail(data, what + " out of range [0, " + std::to_string(impl_->num_frames) + ")");
-  if (!lv.is_done[t]) f.fail(data, what + " is not done");
+  impl_->file.flush();
+}
+
+Positions FrameWriter::read_frame(int level, int t) const {
+  const Impl::Level& lv = impl_->frame_level(level, t, "positions", true);
   Positions x(lv.num_vertices, 3);
-  f.io(false, lv.positions.get(), data, H5T_NATIVE_DOUBLE, {static_cast<hsize_t>(t), 0, 0},
-       {1, static_cast<hsize_t>(lv.num_vertices), 3}, x.data());
+  impl_->file.io(false, lv.positions.get(), level_name("/levels", level, "positions"), H5T_NATIVE_DOUBLE,
+                 {static_cast<hsize_t>(t), 0, 0}, {1, static_cast<hsize_t>(lv.num_vertices), 3}, x.data());
   return x;
+}
+
+FrameStats FrameWriter::read_stats(int level, int t) const {
+  const Impl::Level& lv = impl_->frame_level(level, t, "stats", true);
+  const File& f = impl_->file;
+  const hsize_t ut = static_cast<hsize_t>(t);
+  FrameStats out;
+  for (const auto& [name, dset] : lv.scalars) {  // std::map: sorted by name
+    double value = kNaN;
+    f.io(false, dset.get(), level_name("/levels", level, "stats/") + name, H5T_NATIVE_DOUBLE, {ut}, {1}, &value);
+    if (!std::isnan(value)) out.scalars.emplace_back(name, value);
+  }
+  out.center_of_mass.resize(lv.num_objects, 3);
+  f.io(false, lv.center_of_mass.get(), level_name("/levels", level, "stats/center_of_mass"), H5T_NATIVE_DOUBLE,
+       {ut, 0, 0}, {1, static_cast<hsize_t>(lv.num_objects), 3}, out.center_of_mass.data());
+  if (out.center_of_mass.array().isNaN().all()) out.center_of_mass.resize(0, 3);  // not computed for the frame
+  return out;
+}
+
+void FrameWriter::clear_frame(int level, int t) {
+  Impl::Level& lv = impl_->frame_level(level, t, "done", false);
+  uint8_t zero = 0;
+  impl_->file.io(true, lv.done.get(), level_name("/levels", level, "done"), H5T_NATIVE_UINT8,
+                 {static_cast<hsize_t>(t)}, {1}, &zero);
+  impl_->file.flush();
+  lv.is_done[t] = 0;
 }
 
 bool FrameWriter::is_done(int level, int t) const {
@@ -246,7 +433,7 @@ void FrameWriter::close() {
 // FrameReader
 
 struct FrameReader::Impl {
-  struct Level { int num_vertices = 0, num_faces = 0, num_objects = 0; };
+  using Level = LevelCounts;
   File file;
   int format_version = 0;
   int num_frames = 0;
@@ -280,45 +467,8 @@ struct FrameReader::Impl {
 
 FrameReader::FrameReader(const std::string& path) : impl_(std::make_unique<Impl>()) {
   quiet_hdf5();
-  Impl& r = *impl_;
-  File& f = r.file;
-  f.path = path;
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) f.fail("", "no such file");
-  htri_t is_hdf5 = H5Fis_hdf5(path.c_str());
-  if (is_hdf5 == 0) f.fail("", "not an HDF5 file");
-  if (is_hdf5 < 0) f.fail_h5("", "cannot read the file");
-  f.id = f.checked(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "",
-                   "cannot open the HDF5 file (truncated, or locked by a writer?)");
-  Handle version = f.checked(H5Aopen(f.id.get(), "format_version", H5P_DEFAULT), H5Aclose, "/@format_version",
-                             "missing attribute, not a frame file");
-  f.check(H5Aread(version.get(), H5T_NATIVE_INT, &r.format_version), "/@format_version", "read failed");
-  if (r.format_version != kFrameFormatVersion)
-    f.fail("/@format_version", "format_version " + std::to_string(r.format_version) + " unsupported (expected " +
-                                   std::to_string(kFrameFormatVersion) + ")");
-  scene_json();  // checks that the attribute exists and is a string
-  Handle levels = f.checked(H5Gopen2(f.id.get(), "/levels", H5P_DEFAULT), H5Gclose, "/levels", "missing group");
-  H5G_info_t info;
-  f.check(H5Gget_info(levels.get(), &info), "/levels", "cannot list group");
-  if (info.nlinks == 0) f.fail("/levels", "the file has no levels");
-  for (int l = 0; l < static_cast<int>(info.nlinks); ++l) {
-    Shape d;
-    Impl::Level lv;
-    f.open(level_name("/hierarchy", l, "rest_positions"), H5T_FLOAT, {-1, 3}, &d);
-    lv.num_vertices = static_cast<int>(d[0]);
-    f.open(level_name("/hierarchy", l, "faces"), H5T_INTEGER, {-1, 3}, &d);
-    lv.num_faces = static_cast<int>(d[0]);
-    f.open(level_name("/hierarchy", l, "object_offsets"), H5T_INTEGER, {-1}, &d);
-    if (d[0] < 2) f.fail(level_name("/hierarchy", l, "object_offsets"), "needs at least 2 entries");
-    lv.num_objects = static_cast<int>(d[0]) - 1;
-    const long long n = lv.num_vertices, k = lv.num_objects;
-    f.open(level_name("/hierarchy", l, "object_names"), H5T_STRING, {k});
-    f.open(level_name("/levels", l, "done"), H5T_INTEGER, {l == 0 ? -1 : r.num_frames}, &d);
-    if (l == 0) r.num_frames = static_cast<int>(d[0]);
-    f.open(level_name("/levels", l, "positions"), H5T_FLOAT, {r.num_frames, n, 3});
-    f.open(level_name("/levels", l, "stats/center_of_mass"), H5T_FLOAT, {r.num_frames, k, 3});
-    r.levels.push_back(lv);
-  }
+  impl_->file.path = path;
+  impl_->levels = open_frame_file(impl_->file, false, &impl_->format_version, &impl_->num_frames);
 }
 
 FrameReader::FrameReader(FrameReader&&) noexcept = default;
@@ -392,16 +542,7 @@ ObjectPoints FrameReader::center_of_mass(int level, int t) const {
 
 std::vector<std::string> FrameReader::stat_names(int level) const {
   impl_->level(level);
-  const File& f = impl_->file;
-  const std::string name = level_name("/levels", level, "stats");
-  Handle g = f.checked(H5Gopen2(f.id.get(), name.c_str(), H5P_DEFAULT), H5Gclose, name, "missing group");
-  std::vector<std::string> out;
-  auto collect = [](hid_t, const char* link, const H5L_info_t*, void* names) -> herr_t {
-    if (std::string(link) != "center_of_mass") static_cast<std::vector<std::string>*>(names)->push_back(link);
-    return 0;
-  };
-  f.check(H5Literate(g.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &out), name, "cannot list group");
-  return out;
+  return stat_names_of(impl_->file, level);
 }
 
 std::vector<double> FrameReader::stat(int level, const std::string& name) const {

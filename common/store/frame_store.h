@@ -43,6 +43,23 @@ class FrameWriter {
   // frames 0..last_frame (so last_frame + 1 frames per level). Requires last_frame >= 0.
   static FrameWriter create(const std::string& path, const std::string& scene_json, int last_frame);
 
+  // Opens the existing frame file `path` read-write to go on writing it (the farm's scheduler resumes
+  // its jobs after a restart): checks it as FrameReader does, then loads every level (vertex and
+  // object counts, done flags, the statistics present) so that add_level, write_frame, read_frame,
+  // read_stats, clear_frame and is_done work as on the file create() made. Only done = 1 counts as
+  // stored. Throws InputError "<path>: ..." naming the object if the file is missing, not HDF5,
+  // truncated, locked by a process that has it open (another writer or reader), has another
+  // format_version, has no level (frame count unknown: a writer stopped before its first add_level),
+  // lacks a dataset or has one of the wrong shape, or is longer than the end HDF5 recorded: a writer
+  // killed while flushing leaves that, and writing on would overwrite stored data (FrameReader still
+  // reads such a file; the caller rebuilds it).
+  // A killed writer leaves no lock behind (the kernel drops HDF5's flock with the process) and no
+  // "open for write" mark (the files this class writes have a version 0 superblock, which has none).
+  // But a file it was writing can, rarely, hold a done frame that reads back wrong with no error
+  // (HDF5 updates its index in place; tests/store/frame_store_kill_test.cpp measures it): after a
+  // kill, compare the done frames with the authoritative copy before writing on.
+  static FrameWriter open(const std::string& path);
+
   FrameWriter(FrameWriter&&) noexcept;
   FrameWriter& operator=(FrameWriter&&) noexcept;
   FrameWriter(const FrameWriter&) = delete;
@@ -61,17 +78,36 @@ class FrameWriter {
                  const std::vector<int>& object_offsets, const std::vector<std::string>& object_names);
 
   // Stores frame t (0 <= t <= last_frame) of `level`: positions x (rest.rows() rows) and stats
-  // (a new stat name creates its dataset, earlier frames reading NaN), flushes, then sets
-  // done[t] = 1 and flushes again, so a crash never leaves done = 1 without the frame's data.
+  // (a new stat name creates its dataset, NaN in every frame and flushed before it gets its name, so
+  // that frames already done read NaN there even after a crash), flushes, then sets done[t] = 1 and
+  // flushes again, so a crash never leaves done = 1 without the frame's data.
   // Frames may come in any order; writing a frame again overwrites it (its done flag is cleared and
   // flushed first).
   void write_frame(int level, int t, const Positions& x, const FrameStats& stats);
+
+  // Off: write_frame does not flush (the order above then holds only once flush() is called). For a
+  // writer whose frames are kept durably elsewhere: the farm's scheduler records each frame in SQLite
+  // and rebuilds the file from there after a crash, and two HDF5 flushes (each an fsync) per frame
+  // were its bottleneck (docs/performance.md, "The farm under load"). Default on.
+  void set_flush_each_frame(bool on);
+  // Writes everything buffered to the file (HDF5's flush: metadata and data, then fsync).
+  void flush();
 
   // Positions of a frame this writer stored (done), read back from the file: the farm's scheduler
   // feeds stored frames to workers from its open job file. Throws InputError like FrameReader::frame
   // for a level or frame out of range or not done.
   Positions read_frame(int level, int t) const;
   bool is_done(int level, int t) const;  // false outside the ranges
+
+  // The statistics stored for frame t of `level` (done), read back from the file: the scalars sorted
+  // by name, without those that read NaN (not stored for the frame), and center_of_mass (num_objects
+  // rows, or zero rows when every entry is NaN, i.e. it was not computed). A frame written with these
+  // stats gives them back bit for bit, in that order. Throws InputError like read_frame.
+  FrameStats read_stats(int level, int t) const;
+
+  // Withdraws frame t of `level`: sets done[t] = 0 and flushes (the positions and statistics stay in
+  // the file until the frame is written again). Throws InputError for a level or frame out of range.
+  void clear_frame(int level, int t);
 
   int num_levels() const;
   int num_frames() const;  // last_frame + 1

@@ -1,6 +1,10 @@
 #include "store/h5_util.h"
 
+#include <fcntl.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 
 namespace pd::h5 {
 
@@ -75,6 +79,21 @@ Handle File::create(const std::string& name, hid_t file_type, const Shape& dims,
   Handle space = simple_space(dims);
   return checked(H5Dcreate2(id.get(), name.c_str(), file_type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
                  H5Dclose, name, "cannot create dataset");
+}
+
+Handle File::create_filled(const std::string& name, hid_t file_type, hsize_t n, hid_t fill_type,
+                           const void* fill) const {
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  check(H5Pset_alloc_time(dcpl.get(), H5D_ALLOC_TIME_EARLY), name, "bad allocation time");
+  check(H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_ALLOC), name, "bad fill time");
+  check(H5Pset_fill_value(dcpl.get(), fill_type, fill), name, "bad fill value");
+  Handle space = simple_space({n});
+  return checked(H5Dcreate_anon(id.get(), file_type, space.get(), dcpl.get(), H5P_DEFAULT), H5Dclose, name,
+                 "cannot create dataset");
+}
+
+void File::link(const Handle& object, const std::string& name) const {
+  check(H5Olink(object.get(), id.get(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), name, "cannot link object");
 }
 
 void File::io(bool write, hid_t dset, const std::string& name, hid_t mem_type, const Shape& start,
@@ -189,9 +208,19 @@ bool File::has_attr(const std::string& object, const char* attr) const {
 
 void File::flush() const {
   check(H5Fflush(id.get(), H5F_SCOPE_LOCAL), "", "flush failed");
+  if (fsync(descriptor()) != 0) fail("", "fsync failed");
+}
+
+int File::descriptor() const {
   void* fd = nullptr;
   check(H5Fget_vfd_handle(id.get(), H5P_DEFAULT, &fd), "", "cannot get the file descriptor");
-  if (fsync(*static_cast<int*>(fd)) != 0) fail("", "fsync failed");
+  return *static_cast<int*>(fd);
+}
+
+void File::close_on_exec() const {
+  const int fd = descriptor(), flags = fcntl(fd, F_GETFD);
+  if (flags < 0 || fcntl(fd, F_SETFD, flags | FD_CLOEXEC) < 0)
+    fail("", std::string("cannot set close-on-exec: ") + std::strerror(errno));
 }
 
 }  // namespace pd::h5

@@ -76,6 +76,13 @@ struct File {
   // Creates dataset `name` with an optional fill value and, if chunk is non-empty, chunked layout.
   Handle create(const std::string& name, hid_t file_type, const Shape& dims, const Shape& chunk = {},
                 hid_t fill_type = H5T_NATIVE_DOUBLE, const void* fill = nullptr) const;
+  // A one-dimensional contiguous dataset of n elements, created without a link (give it one with
+  // link()) and with its storage allocated and filled with `fill` now, not at its first write as
+  // HDF5 does by default: a writer killed inside the flush after that first write can leave the
+  // dataset's header and link in the file without the fill, which then reads 0 everywhere (measured
+  // by tests/store/frame_store_kill_test.cpp). `name` is only used in error messages.
+  Handle create_filled(const std::string& name, hid_t file_type, hsize_t n, hid_t fill_type, const void* fill) const;
+  void link(const Handle& object, const std::string& name) const;  // a hard link `name` to `object`
   // Reads (write = false) or writes the block [start, start + count) of dataset `dset` called `name`.
   void io(bool write, hid_t dset, const std::string& name, hid_t mem_type, const Shape& start, const Shape& count,
           void* data) const;
@@ -98,6 +105,11 @@ struct File {
   bool has_attr(const std::string& object, const char* attr) const;
   // H5Fflush, then fsync, so that data flushed before a later write also reaches the disk first.
   void flush() const;
+  int descriptor() const;  // the file descriptor (sec2 driver)
+  // Marks the descriptor close-on-exec. HDF5 opens files without O_CLOEXEC, so a program this process
+  // starts would inherit the descriptor and with it HDF5's file lock (flock), which would then outlive
+  // a killed writer and keep the file locked for as long as that program runs.
+  void close_on_exec() const;
 };
 
 }  // namespace pd::h5

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -13,8 +14,8 @@
 #include <random>
 #include <sstream>
 
-// One test edits a file with the HDF5 C API directly (tests/CMakeLists.txt puts HDF5's headers on
-// the test target's include path).
+// Some tests edit or read a file with the HDF5 C API directly (tests/CMakeLists.txt puts HDF5's
+// headers on the test target's include path).
 #include <hdf5.h>
 
 namespace pd {
@@ -54,6 +55,10 @@ FrameStats make_stats(int t, int num_objects) {
 }
 
 using test::input_error_of;
+
+bool same_positions(const Positions& a, const Positions& b) {
+  return a.rows() == b.rows() && bits_equal(a.data(), b.data(), a.size());
+}
 
 class FrameStoreTest : public ::testing::Test {
  protected:
@@ -122,6 +127,34 @@ TEST_F(FrameStoreTest, RoundTripIsBitExactForPositionsFacesRestAndStats) {
       EXPECT_TRUE(bits_equal(&got, &value, 1)) << name << " at frame " << t;
     }
   }
+}
+
+// The scheduler's mode: no flush per frame, one flush (or the close) at the end; the file holds the
+// same frames and statistics bit for bit.
+TEST_F(FrameStoreTest, WithoutAFlushPerFrameTheFlushedFileHoldsTheSameFrames) {
+  std::vector<Positions> frames;
+  {
+    FrameWriter w = make_writer(3, "{}");
+    w.set_flush_each_frame(false);
+    for (int t = 0; t <= 3; ++t) {
+      frames.push_back(random_positions(10, rng_));
+      w.write_frame(1, t, frames.back(), make_stats(t, 2));
+    }
+    w.write_frame(1, 2, frames[1], make_stats(5, 2));  // an overwrite, unflushed too
+    frames[2] = frames[1];
+    EXPECT_TRUE(w.is_done(1, 2));
+    EXPECT_TRUE(same_positions(w.read_frame(1, 2), frames[1]));
+    w.flush();
+    w.close();
+  }
+  FrameReader r(path_);
+  int compared = 0;
+  for (int t = 0; t <= 3; ++t) {
+    EXPECT_TRUE(same_positions(r.frame(1, t), frames[t])) << t;
+    ++compared;
+  }
+  EXPECT_EQ(compared, 4);
+  EXPECT_EQ(r.stat(1, "newton_iterations"), (std::vector<double>{1.0, 2.0, 6.0, 4.0}));
 }
 
 TEST_F(FrameStoreTest, DoneFlagsOnlyForWrittenFrames) {
@@ -368,6 +401,218 @@ TEST_F(FrameStoreTest, ExportWritesOneObjPerDoneFrameWithExactVertices) {
   EXPECT_FALSE(fs::exists(out / "frame_00003.obj"));
   EXPECT_NE(input_error_of([&] { export_obj_frames(r, 5, out.string()); }).find("level out of range"),
             std::string::npos);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// FrameWriter::open, read_stats, clear_frame
+
+void expect_frame_stats_bits(const FrameStats& got, const FrameStats& want, const std::string& where) {
+  ASSERT_EQ(got.scalars.size(), want.scalars.size()) << where;
+  for (size_t i = 0; i < want.scalars.size(); ++i) {
+    EXPECT_EQ(got.scalars[i].first, want.scalars[i].first) << where;
+    EXPECT_TRUE(bits_equal(&got.scalars[i].second, &want.scalars[i].second, 1))
+        << where << " " << want.scalars[i].first;
+  }
+  ASSERT_EQ(got.center_of_mass.rows(), want.center_of_mass.rows()) << where;
+  EXPECT_TRUE(bits_equal(got.center_of_mass.data(), want.center_of_mass.data(), want.center_of_mass.size())) << where;
+}
+
+TEST_F(FrameStoreTest, OpenedFileGoesOnWritingNewFramesOverwritesAndNewStats) {
+  std::map<int, Positions> level0, level1;
+  {
+    FrameWriter w = make_writer(5);
+    level0[0] = random_positions(6, rng_);
+    level1[1] = random_positions(10, rng_);
+    w.write_frame(0, 0, level0[0], make_stats(0, 1));
+    w.write_frame(1, 1, level1[1], make_stats(1, 2));
+    w.close();
+  }
+  {
+    FrameWriter w = FrameWriter::open(path_);
+    EXPECT_EQ(w.path(), path_);
+    ASSERT_EQ(w.num_levels(), 2);
+    EXPECT_EQ(w.num_frames(), 6);
+    EXPECT_TRUE(w.is_done(0, 0));
+    EXPECT_TRUE(w.is_done(1, 1));
+    EXPECT_FALSE(w.is_done(0, 1));
+    Positions x = w.read_frame(1, 1);
+    EXPECT_TRUE(bits_equal(x.data(), level1[1].data(), x.size()));
+    level0[3] = random_positions(6, rng_);  // a new frame with a statistic the file does not have yet
+    FrameStats s = make_stats(3, 1);
+    s.scalars.emplace_back("energy_contact", -0.0);
+    w.write_frame(0, 3, level0[3], s);
+    level1[1] = random_positions(10, rng_);  // overwrite of a frame stored before the reopening
+    w.write_frame(1, 1, level1[1], make_stats(4, 2));
+  }  // destructor closes
+  FrameReader r(path_);
+  EXPECT_EQ(r.done(0), (std::vector<uint8_t>{1, 0, 0, 1, 0, 0}));
+  EXPECT_EQ(r.done(1), (std::vector<uint8_t>{0, 1, 0, 0, 0, 0}));
+  int compared = 0;
+  for (const auto* frames : {&level0, &level1}) {
+    const int level = frames == &level0 ? 0 : 1;
+    for (const auto& [t, X] : *frames) {
+      Positions Y = r.frame(level, t);
+      EXPECT_TRUE(bits_equal(X.data(), Y.data(), X.size())) << "level " << level << " frame " << t;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 3);
+  EXPECT_EQ(r.stat_names(0), (std::vector<std::string>{"energy_contact", "kinetic_energy", "newton_iterations",
+                                                       "solve_seconds"}));
+  std::vector<double> e = r.stat(0, "energy_contact");
+  EXPECT_TRUE(std::signbit(e[3]) && e[3] == 0.0);
+  EXPECT_TRUE(std::isnan(e[0]));
+  EXPECT_EQ(r.stat(1, "newton_iterations")[1], 5.0);  // make_stats(4, ...) replaced make_stats(1, ...)
+  EXPECT_EQ(r.center_of_mass(1, 1), ObjectPoints::Constant(2, 3, 4 * 0.25));
+}
+
+TEST_F(FrameStoreTest, OpenedFileTakesTheNextLevel) {
+  {
+    FrameWriter w = FrameWriter::create(path_, "{}", 2);
+    w.add_level(0, rest0_, strip_faces(3), {0, 6}, {"cloth"});
+    w.write_frame(0, 2, rest0_, make_stats(2, 1));
+  }
+  {
+    FrameWriter w = FrameWriter::open(path_);
+    ASSERT_EQ(w.num_levels(), 1);
+    EXPECT_NE(input_error_of([&] { w.add_level(2, rest1_, strip_faces(5), {0, 10}, {"a"}); }).find("in order"),
+              std::string::npos);
+    w.add_level(1, rest1_, strip_faces(5), {0, 4, 10}, {"cloth", "sphere"});
+    w.write_frame(1, 0, rest1_, make_stats(0, 2));
+  }
+  FrameReader r(path_);
+  ASSERT_EQ(r.num_levels(), 2);
+  EXPECT_EQ(r.done(0), (std::vector<uint8_t>{0, 0, 1}));
+  EXPECT_EQ(r.done(1), (std::vector<uint8_t>{1, 0, 0}));
+  EXPECT_EQ(r.object_names(1), (std::vector<std::string>{"cloth", "sphere"}));
+}
+
+TEST_F(FrameStoreTest, ReadStatsGivesTheStoredStatsBackBitForBitSortedByName) {
+  FrameStats a;
+  a.scalars = {{"solve_seconds", 1.0 / 3.0}, {"energy_bending", -0.0}, {"contact_min_gap", HUGE_VAL},
+               {"newton_iterations", 5e-324}, {"kinetic_energy", 1e-300}};
+  a.center_of_mass = ObjectPoints(2, 3);
+  a.center_of_mass << -0.0, 1.0 / 7.0, 2.5e-310, 1e300, -HUGE_VAL, 3.0;
+  FrameStats b;  // fewer scalars, centre of mass not computed
+  b.scalars = {{"newton_iterations", 7.0}};
+  FrameStats a_sorted = a;
+  std::sort(a_sorted.scalars.begin(), a_sorted.scalars.end());
+  {
+    FrameWriter w = make_writer(3);
+    w.write_frame(1, 0, rest1_, a);
+    w.write_frame(1, 2, rest1_, b);
+    expect_frame_stats_bits(w.read_stats(1, 0), a_sorted, "writer, frame 0");
+    expect_frame_stats_bits(w.read_stats(1, 2), b, "writer, frame 2");  // the other names read NaN: left out
+    EXPECT_EQ(input_error_of([&] { w.read_stats(1, 1); }), path_ + ": /levels/1/stats: frame 1 of level 1 is not done");
+    EXPECT_NE(input_error_of([&] { w.read_stats(1, 4); }).find("out of range [0, 4)"), std::string::npos);
+    EXPECT_NE(input_error_of([&] { w.read_stats(2, 0); }).find("level out of range"), std::string::npos);
+  }
+  FrameWriter w = FrameWriter::open(path_);
+  expect_frame_stats_bits(w.read_stats(1, 0), a_sorted, "reopened, frame 0");
+  expect_frame_stats_bits(w.read_stats(1, 2), b, "reopened, frame 2");
+  FrameStats none = w.read_stats(1, 2);
+  EXPECT_EQ(none.center_of_mass.rows(), 0);
+  EXPECT_EQ(none.center_of_mass.cols(), 3);
+}
+
+TEST_F(FrameStoreTest, ClearFrameWithdrawsTheFrameAndLeavesItsData) {
+  const Positions X = random_positions(10, rng_);
+  {
+    FrameWriter w = make_writer(3);
+    w.write_frame(1, 1, X, make_stats(1, 2));
+    w.write_frame(1, 2, X, make_stats(2, 2));
+    w.clear_frame(1, 1);
+    EXPECT_FALSE(w.is_done(1, 1));
+    EXPECT_TRUE(w.is_done(1, 2));
+    EXPECT_EQ(input_error_of([&] { w.read_frame(1, 1); }),
+              path_ + ": /levels/1/positions: frame 1 of level 1 is not done");
+    w.clear_frame(1, 3);  // not done: stays so
+    EXPECT_EQ(input_error_of([&] { w.clear_frame(1, 4); }),
+              path_ + ": /levels/1/done: frame 4 of level 1 out of range [0, 4)");
+    EXPECT_EQ(input_error_of([&] { w.clear_frame(-1, 0); }), path_ + ": /levels/-1/done: level out of range [0, 2)");
+  }
+  {
+    FrameReader r(path_);
+    EXPECT_EQ(r.done(1), (std::vector<uint8_t>{0, 0, 1, 0}));
+  }
+  hid_t file = H5Fopen(path_.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);  // the row itself is still there
+  ASSERT_GE(file, 0);
+  hid_t dset = H5Dopen2(file, "/levels/1/positions", H5P_DEFAULT);
+  std::vector<double> all(4 * 10 * 3);
+  ASSERT_GE(H5Dread(dset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, all.data()), 0);
+  H5Dclose(dset);
+  H5Fclose(file);
+  EXPECT_TRUE(bits_equal(all.data() + 30, X.data(), 30));
+  FrameWriter w = FrameWriter::open(path_);  // the cleared flag was flushed: the reopened file agrees
+  EXPECT_FALSE(w.is_done(1, 1));
+  EXPECT_TRUE(w.is_done(1, 2));
+  w.write_frame(1, 1, X, make_stats(1, 2));
+  EXPECT_TRUE(w.is_done(1, 1));
+}
+
+TEST_F(FrameStoreTest, OpenOfABadFileThrowsInputErrorNamingIt) {
+  const std::string missing = (dir_ / "nope.h5").string();
+  EXPECT_EQ(input_error_of([&] { FrameWriter::open(missing); }), missing + ": no such file");
+
+  const std::string garbage = (dir_ / "garbage.h5").string();
+  std::ofstream(garbage, std::ios::binary) << std::string("this is not HDF5\0\x01\x02 garbage bytes", 34);
+  EXPECT_EQ(input_error_of([&] { FrameWriter::open(garbage); }), garbage + ": not an HDF5 file");
+
+  const std::string no_levels = (dir_ / "no_levels.h5").string();
+  FrameWriter::create(no_levels, "{}", 3).close();
+  EXPECT_EQ(input_error_of([&] { FrameWriter::open(no_levels); }), no_levels + ": /levels: the file has no levels");
+
+  {
+    FrameWriter w = make_writer(3);
+    for (int t = 0; t <= 3; ++t) w.write_frame(1, t, random_positions(10, rng_), make_stats(t, 2));
+  }
+  // Longer than HDF5's recorded end, as a writer killed inside a flush can leave it: readable, but not
+  // to be written on.
+  const std::string grown = (dir_ / "grown.h5").string();
+  fs::copy_file(path_, grown);
+  const auto clean_size = fs::file_size(grown);
+  std::ofstream(grown, std::ios::binary | std::ios::app) << std::string(100, '\0');
+  EXPECT_EQ(input_error_of([&] { FrameWriter::open(grown); }),
+            grown + ": not closed cleanly by its last writer (killed while flushing?): the file has " +
+                std::to_string(clean_size + 100) + " bytes but HDF5 allocated " + std::to_string(clean_size) +
+                "; writing on could overwrite stored data, so it must be rebuilt");
+  EXPECT_EQ(FrameReader(grown).done(1), std::vector<uint8_t>(4, 1));
+
+  const std::string truncated = (dir_ / "truncated.h5").string();
+  fs::copy_file(path_, truncated);
+  fs::resize_file(truncated, fs::file_size(truncated) / 2);
+  std::string msg = input_error_of([&] { FrameWriter::open(truncated); });
+  EXPECT_EQ(msg.rfind(truncated + ": cannot open the HDF5 file for writing", 0), 0u) << msg;
+  EXPECT_NE(msg.find("truncated file"), std::string::npos) << msg;  // HDF5's own words, appended
+
+  // Edits with the C API: a mis-shaped statistic, a missing level dataset, another format_version.
+  hid_t file = H5Fopen(path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  hsize_t three = 3;
+  hid_t space = H5Screate_simple(1, &three, nullptr);
+  hid_t dset = H5Dcreate2(file, "/levels/0/stats/bad", H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(dset, 0);
+  H5Dclose(dset);
+  H5Sclose(space);
+  H5Fclose(file);
+  EXPECT_EQ(input_error_of([&] { FrameWriter::open(path_); }),
+            path_ + ": /levels/0/stats/bad: shape (3), expected (4)");
+
+  file = H5Fopen(path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(H5Ldelete(file, "/levels/0/stats/bad", H5P_DEFAULT), 0);
+  ASSERT_GE(H5Ldelete(file, "/levels/1/positions", H5P_DEFAULT), 0);
+  H5Fclose(file);
+  msg = input_error_of([&] { FrameWriter::open(path_); });
+  EXPECT_EQ(msg.rfind(path_ + ": /levels/1/positions: missing dataset", 0), 0u) << msg;
+
+  file = H5Fopen(path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  hid_t attr = H5Aopen(file, "format_version", H5P_DEFAULT);
+  int two = 2;
+  ASSERT_GE(H5Awrite(attr, H5T_NATIVE_INT, &two), 0);
+  H5Aclose(attr);
+  H5Fclose(file);
+  EXPECT_EQ(input_error_of([&] { FrameWriter::open(path_); }),
+            path_ + ": /@format_version: format_version 2 unsupported (expected 1)");
 }
 
 }  // namespace
