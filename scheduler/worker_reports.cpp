@@ -152,9 +152,10 @@ void Scheduler::on_report(const std::string& identity, protocol::FrameReport& m)
     const std::optional<FrameData> stored = store_->frame_data(t.job, {m.level, m.frame});
     // Solved again (a task restarted from its first frame): a stored frame is never changed. The
     // solve is deterministic, so the two agree; a difference is logged for a look.
+    // Bit for bit (memcmp, not ==: -0.0 == 0.0); sizes first, and never memcmp on empty data.
     const bool same = stored->positions.size() == data.positions.size() &&
-                      std::memcmp(stored->positions.data(), data.positions.data(),
-                                  sizeof(double) * data.positions.size()) == 0;
+                      (data.positions.empty() || std::memcmp(stored->positions.data(), data.positions.data(),
+                                                             sizeof(double) * data.positions.size()) == 0);
     event(same ? "frame_repeated" : "frame_differs", t.job, t.id, s->worker,
           "level " + std::to_string(m.level) + " frame " + std::to_string(m.frame) + " was stored already; kept");
     return;

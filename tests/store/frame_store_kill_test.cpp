@@ -140,8 +140,9 @@ void add_level(FrameWriter& w, int l) {
   w.add_level(l, frame_positions(l, -1, 0), strip_faces(n / 2), offsets, names);
 }
 
+// n == 0 first: memcmp with the null data() of an empty matrix is undefined (UBSan reports it).
 bool same_bits(const double* a, const double* b, Eigen::Index n) {
-  return std::memcmp(a, b, sizeof(double) * static_cast<size_t>(n)) == 0;
+  return n == 0 || std::memcmp(a, b, sizeof(double) * static_cast<size_t>(n)) == 0;
 }
 
 // What differs between the frame read (X, S) and write `pass` of it, in words.

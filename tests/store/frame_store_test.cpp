@@ -23,8 +23,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// n == 0 first: an empty matrix's data() is null, and memcmp with a null pointer is undefined
+// behaviour even for 0 bytes (UBSan reports it).
 bool bits_equal(const double* a, const double* b, Eigen::Index n) {
-  return std::memcmp(a, b, sizeof(double) * static_cast<size_t>(n)) == 0;
+  return n == 0 || std::memcmp(a, b, sizeof(double) * static_cast<size_t>(n)) == 0;
 }
 
 Positions random_positions(int n, std::mt19937_64& rng) {
