@@ -38,8 +38,7 @@ void write_into(FrameWriter& w, int level, int t, const FrameData& d) {
 void check_frame_stats(const std::vector<protocol::Stat>& stats) {
   std::set<std::string> seen;
   for (const auto& [name, value] : stats) {
-    if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "center_of_mass")
-      throw InputError("frame: stats: invalid statistic name '" + name + "'");
+    if (!valid_stat_name(name)) throw InputError("frame: stats: invalid statistic name '" + name + "'");
     if (!seen.insert(name).second) throw InputError("frame: stats: '" + name + "': statistic given twice");
   }
 }

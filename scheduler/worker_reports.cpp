@@ -148,8 +148,7 @@ void Scheduler::on_report(const std::string& identity, protocol::FrameReport& m)
   data.center_of_mass = std::move(m.center_of_mass);
   data.kappa = kappa_of(data.stats);
   s->progress = std::max(s->progress, m.frame);
-  if (store_->frame_stored(t.job, {m.level, m.frame})) {
-    const std::optional<FrameData> stored = store_->frame_data(t.job, {m.level, m.frame});
+  if (const std::optional<FrameData> stored = store_->frame_data(t.job, {m.level, m.frame})) {
     // Solved again (a task restarted from its first frame): a stored frame is never changed. The
     // solve is deterministic, so the two agree; a difference is logged for a look.
     // Bit for bit (memcmp, not ==: -0.0 == 0.0); sizes first, and never memcmp on empty data.

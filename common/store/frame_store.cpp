@@ -27,8 +27,7 @@ using h5::Shape;
 using h5::vlen_string_type;
 
 void check_stat_name(const File& f, const std::string& name, int level) {
-  if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "center_of_mass")
-    f.fail(level_name("/levels", level, "stats"), "invalid statistic name '" + name + "'");
+  if (!valid_stat_name(name)) f.fail(level_name("/levels", level, "stats"), "invalid statistic name '" + name + "'");
 }
 
 // add_level on a file whose /hierarchy/<l> was written by write_hierarchy: the stored rest mesh,
@@ -167,6 +166,10 @@ std::vector<LevelCounts> open_frame_file(File& f, bool write, int* format_versio
 }
 
 }  // namespace
+
+bool valid_stat_name(const std::string& name) {
+  return !name.empty() && name.find('/') == std::string::npos && name != "." && name != "center_of_mass";
+}
 
 // ---------------------------------------------------------------------------------------------------
 // FrameWriter

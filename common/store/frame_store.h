@@ -35,6 +35,10 @@ struct FrameStats {
   ObjectPoints center_of_mass;
 };
 
+// Whether `name` may name a scalar statistic (the rule above: non-empty, no '/', not "." nor
+// "center_of_mass"). The farm's scheduler checks frames with it before it records them.
+bool valid_stat_name(const std::string& name);
+
 // Writes a frame file. A single writer (one process, one object) per file. Movable, not copyable
 // (a moved-from writer may only be destroyed or assigned to).
 class FrameWriter {

@@ -16,6 +16,7 @@
 //
 // Forked processes: the writer (killed), a checker per kill, and, in the lock test, holders of the file.
 #include "store/frame_store.h"
+#include "support/strip_mesh.h"
 #include "support/input_error_of.h"
 #include "support/test_paths.h"
 
@@ -123,14 +124,7 @@ FrameStats frame_stats(int level, int t, int pass) {
   return s;
 }
 
-Faces strip_faces(int n) {
-  Faces F(2 * (n - 1), 3);
-  for (int i = 0; i + 1 < n; ++i) {
-    F.row(2 * i) << 2 * i, 2 * i + 1, 2 * i + 2;
-    F.row(2 * i + 1) << 2 * i + 1, 2 * i + 3, 2 * i + 2;
-  }
-  return F;
-}
+using test::strip_faces;
 
 void add_level(FrameWriter& w, int l) {
   const int n = kVertices[l];

@@ -1,4 +1,5 @@
 #include "store/frame_store.h"
+#include "support/strip_mesh.h"
 #include "support/input_error_of.h"
 
 #include <gtest/gtest.h>
@@ -39,15 +40,7 @@ Positions random_positions(int n, std::mt19937_64& rng) {
   return X;
 }
 
-// A strip of n x 2 vertices and its 2 (n - 1) triangles.
-Faces strip_faces(int n) {
-  Faces F(2 * (n - 1), 3);
-  for (int i = 0; i + 1 < n; ++i) {
-    F.row(2 * i) << 2 * i, 2 * i + 1, 2 * i + 2;
-    F.row(2 * i + 1) << 2 * i + 1, 2 * i + 3, 2 * i + 2;
-  }
-  return F;
-}
+using test::strip_faces;
 
 FrameStats make_stats(int t, int num_objects) {
   FrameStats s;
