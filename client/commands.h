@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <string>
 
+#include "protocol/protocol.h"
+
 namespace pd::cli {
 
 struct SimulateArgs {
@@ -106,10 +108,14 @@ int cancel(const JobActionArgs& args);
 int refine(const JobActionArgs& args);
 int requeue(const JobActionArgs& args);
 
+// pd workers (list), pd workers add --slurm N ..., pd workers remove --slurm ID.
 struct WorkersArgs {
   std::string farm;
   FarmKeyFiles keys;
   bool json = false;
+  enum class Action { list, add, remove } action = Action::list;
+  protocol::AddSlurmWorkers add;        // add: --slurm (count), --partition, --time, --cpus, --mem, --keep
+  protocol::RemoveSlurmWorkers remove;  // remove: --slurm (id), --now
 };
 int workers(const WorkersArgs& args);
 

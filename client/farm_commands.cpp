@@ -14,6 +14,7 @@
 
 #include "commands.h"
 #include "farm/curve.h"
+#include "farm/slurm.h"
 #include "farm_client.h"
 #include "progress.h"
 #include "util/input_error.h"
@@ -186,23 +187,10 @@ int requeue(const JobActionArgs& args) {
   return 0;
 }
 
-int workers(const WorkersArgs& args) {
-  FarmClient client = farm_client_for(args.farm, args.keys);
-  const auto reply = client.request_as<protocol::WorkersReply>(protocol::WorkersRequest{});
-  if (args.json) {
-    print_text_block(protocol::to_json_text(reply));
-    return 0;
-  }
-  if (reply.workers.empty()) {
-    std::printf("no workers\n");
-    return 0;
-  }
-  std::vector<std::vector<std::string>> rows = {{"id", "name", "host", "state", "task", "cores", "tasks done", "seen"}};
-  for (const protocol::WorkerStatus& w : reply.workers) {
-    rows.push_back({std::to_string(w.id), w.name, w.host, w.state, w.task != 0 ? std::to_string(w.task) : "-",
-                    std::to_string(w.cores), std::to_string(w.tasks_done),
-                    format_duration(w.seen_seconds_ago) + " ago"});
-  }
+namespace {
+
+// Prints rows as columns two spaces apart, the first row a header.
+void print_table(const std::vector<std::vector<std::string>>& rows) {
   std::vector<std::size_t> width(rows[0].size(), 0);
   for (const auto& row : rows)
     for (std::size_t c = 0; c < row.size(); ++c) width[c] = std::max(width[c], row[c].size());
@@ -211,6 +199,60 @@ int workers(const WorkersArgs& args) {
     for (std::size_t c = 0; c < row.size(); ++c) line += c + 1 < row.size() ? padded(row[c], width[c] + 2) : row[c];
     std::printf("%s\n", line.c_str());
   }
+}
+
+void print_workers(const protocol::WorkersReply& reply) {
+  if (reply.workers.empty()) std::printf("no workers\n");
+  if (!reply.workers.empty()) {
+    std::vector<std::vector<std::string>> rows = {
+        {"id", "name", "host", "state", "task", "cores", "tasks done", "seen", "slurm job"}};
+    for (const protocol::WorkerStatus& w : reply.workers)
+      rows.push_back({std::to_string(w.id), w.name, w.host, w.state, w.task != 0 ? std::to_string(w.task) : "-",
+                      std::to_string(w.cores), std::to_string(w.tasks_done),
+                      format_duration(w.seen_seconds_ago) + " ago", w.slurm_job.empty() ? "-" : w.slurm_job});
+    print_table(rows);
+  }
+  if (reply.slurm.empty() && reply.slurm_keep == 0) return;
+  std::printf("\nslurm workers (keep %d)\n", reply.slurm_keep);
+  if (reply.slurm.empty()) return;
+  std::vector<std::vector<std::string>> rows = {{"slurm job", "state", "worker", "submitted", "note"}};
+  for (const protocol::SlurmWorkerStatus& s : reply.slurm) {
+    std::string note = s.reason == "None" ? "" : s.reason;
+    if (s.draining) note += std::string(note.empty() ? "" : ", ") + "draining";
+    if (s.replacement) note += std::string(note.empty() ? "" : ", ") + "replacement";
+    rows.push_back({s.slurm_job, s.state, s.worker.empty() ? "-" : s.worker,
+                    format_duration(s.submitted_seconds_ago) + " ago", note});
+  }
+  print_table(rows);
+}
+
+}  // namespace
+
+int workers(const WorkersArgs& args) {
+  // Checked here too, so that a bad value is answered before the scheduler is asked.
+  if (args.action == WorkersArgs::Action::add) farm::check_slurm_request(args.add);
+  if (args.action == WorkersArgs::Action::remove && !farm::valid_slurm_job_id(args.remove.slurm_job))
+    throw InputError("--slurm: expected a Slurm job id (123) or array task id (123_4), got '" +
+                     args.remove.slurm_job.substr(0, 40) + "'");
+  // sbatch and scancel run in the scheduler, bounded by its own 10 s limit per call.
+  FarmClient client = farm_client_for(args.farm, args.keys,
+                                      args.action == WorkersArgs::Action::list ? std::chrono::seconds(5)
+                                                                               : std::chrono::seconds(30));
+  if (args.action != WorkersArgs::Action::list) {
+    const auto accepted = args.action == WorkersArgs::Action::add
+                              ? client.request_as<protocol::SlurmAccepted>(args.add)
+                              : client.request_as<protocol::SlurmAccepted>(args.remove);
+    if (args.json) {
+      print_json({{"slurm_job", accepted.slurm_job}, {"tasks", accepted.tasks}, {"message", accepted.message}});
+    } else {
+      std::printf("%s\n", accepted.message.c_str());
+      for (const std::string& t : accepted.tasks) std::printf("  %s\n", t.c_str());
+    }
+    return 0;
+  }
+  const auto reply = client.request_as<protocol::WorkersReply>(protocol::WorkersRequest{});
+  if (args.json) print_text_block(protocol::to_json_text(reply));
+  else print_workers(reply);
   return 0;
 }
 

@@ -78,6 +78,31 @@ void add_farm_options(CLI::App* command, std::string& farm, pd::cli::FarmKeyFile
   command->add_option("--key", keys.key, "This client's key pair (PREFIX.key from pd keys); with --server-key");
 }
 
+// pd workers add --slurm N ... and pd workers remove --slurm ID (docs/deploy.md, "Slurm").
+void add_slurm_commands(CLI::App* workers, pd::cli::WorkersArgs& w) {
+  using Action = pd::cli::WorkersArgs::Action;
+  CLI::App* add = workers->add_subcommand("add", "Start workers as a Slurm job array (the scheduler runs sbatch)");
+  add->add_option("--slurm", w.add.count, "Number of Slurm workers (array tasks)")->required()->check(at_least_one());
+  add->add_option("--partition", w.add.partition, "Slurm partition (default: the cluster's default)");
+  add->add_option("--time", w.add.time_limit, "Time limit per worker, Slurm's format (e.g. 2:00:00)");
+  add->add_option("--cpus", w.add.cpus, "CPUs per worker (default: the job script's)")->check(at_least_one());
+  add->add_option("--mem", w.add.memory, "Memory per worker, e.g. 4G (default: the job script's)");
+  add->add_option("--keep", w.add.keep,
+                  "Keep this many Slurm workers running while work remains (a replacement when one ends); 0: none")
+      ->check(CLI::Range(0, 1000));
+  add->add_flag("--json", w.json, "Print {\"slurm_job\", \"tasks\", \"message\"}");
+  add->callback([&w] { w.action = Action::add; });
+  add->fallthrough();  // --farm, --server-key, --key of pd workers may follow the subcommand
+  CLI::App* remove = workers->add_subcommand(
+      "remove", "Drain Slurm workers: cancel the idle ones now, the busy ones when their task ends (scancel)");
+  remove->add_option("--slurm", w.remove.slurm_job, "Slurm job (123: the whole array) or array task (123_4)")
+      ->required();
+  remove->add_flag("--now", w.remove.now, "Cancel busy workers too, at once (their tasks go to other workers)");
+  remove->add_flag("--json", w.json, "Print {\"slurm_job\", \"tasks\", \"message\"}");
+  remove->callback([&w] { w.action = Action::remove; });
+  remove->fallthrough();
+}
+
 void add_farm_commands(CLI::App& app, FarmCommands& f) {
   const std::string job_help = "Job id (as pd submit printed it)";
 
@@ -129,9 +154,11 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
   add_farm_options(f.requeue, f.rq.farm, f.rq.keys);
   f.requeue->add_flag("--json", f.rq.json, "Print {\"job\", \"message\"}");
 
-  f.workers = app.add_subcommand("workers", "The workers the scheduler knows, one line each");
+  f.workers = app.add_subcommand("workers", "The workers the scheduler knows, one line each, and its Slurm workers");
   add_farm_options(f.workers, f.wo.farm, f.wo.keys);
   f.workers->add_flag("--json", f.wo.json, "Print the reply as JSON");
+  f.workers->require_subcommand(0, 1);
+  add_slurm_commands(f.workers, f.wo);
 
   f.run = app.add_subcommand("run", "Run a scene as a job on a farm of N workers started on this machine");
   f.run->add_option("scene", f.ru.scene, "Scene file (JSON)")->required();

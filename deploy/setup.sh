@@ -16,6 +16,8 @@ PACKAGES=(
   libgtest-dev           # tests
   libcli11-dev           # the pd command line
   iproute2               # ip netns + veth: the CURVE test on a non-loopback address (tests/integration/)
+  slurm-wlm munge        # Slurm workers (deploy/slurm/): the test starts slurmctld + slurmd + munged on localhost
+  systemd                # systemd-analyze verify of deploy/systemd/'s units (tests/deploy/)
 )
 
 missing=()

@@ -16,10 +16,6 @@ namespace {
 
 protocol::ErrorReply error(const std::string& message) { return protocol::ErrorReply{message}; }
 
-double now_seconds() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
 }  // namespace
 
 void Scheduler::on_client_message(const std::string& identity, const protocol::Parts& parts) {
@@ -115,7 +111,7 @@ protocol::JobStatus Scheduler::job_status(const JobRow& job) {
   js.frames = job.spec.frames;
   js.subsets = job.spec.subsets;
   js.preview_only = job.spec.preview_only;
-  js.elapsed_seconds = (job.finished > 0 ? job.finished : now_seconds()) - job.submitted;
+  js.elapsed_seconds = (job.finished > 0 ? job.finished : unix_now()) - job.submitted;
   const std::vector<int> stored = store_->frames_stored(job.id);
   const JobFile* f = files_.find(job.id);
   const int solved_levels = job.spec.preview_only ? 1 : job.spec.levels;
@@ -214,7 +210,7 @@ protocol::Reply Scheduler::serve(protocol::WorkersRequest&) {
   protocol::WorkersReply r;
   std::map<int64_t, const Session*> live;
   for (const auto& [identity, s] : sessions_) live[s.worker] = &s;
-  const double now = now_seconds();
+  const double now = unix_now();
   for (const WorkerRow& w : store_->workers()) {
     protocol::WorkerStatus ws;
     ws.id = w.id;
@@ -229,7 +225,30 @@ protocol::Reply Scheduler::serve(protocol::WorkersRequest&) {
     ws.tasks_done = w.tasks_done;
     r.workers.push_back(ws);
   }
+  slurm_->fill(r, now);
+  for (protocol::WorkerStatus& ws : r.workers)
+    for (const protocol::SlurmWorkerStatus& sw : r.slurm)
+      if (sw.worker == ws.name) {
+        ws.slurm_job = sw.slurm_job;  // newest first: the Slurm job it runs as now, or ran as last
+        break;
+      }
   return r;
+}
+
+protocol::Reply Scheduler::serve(protocol::AddSlurmWorkers& m) {
+  try {
+    return slurm_->add(m, unix_now());
+  } catch (const InputError& e) {
+    return error(e.what());
+  }
+}
+
+protocol::Reply Scheduler::serve(protocol::RemoveSlurmWorkers& m) {
+  try {
+    return slurm_->remove(m, [this](const std::string& name) { return worker_busy(name); }, unix_now());
+  } catch (const InputError& e) {
+    return error(e.what());
+  }
 }
 
 }  // namespace pd::scheduler

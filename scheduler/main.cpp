@@ -44,6 +44,27 @@ int main(int argc, char** argv) {
                  "CURVE key pair of this scheduler (PREFIX.key from --generate-keys); needed beyond loopback");
   app.add_option("--authorized-keys", options.authorized_keys_file,
                  "Public keys of the workers and clients to admit, one per line; needed with --key");
+  pd::scheduler::SlurmOptions& slurm = options.slurm;
+  app.add_option("--slurm-script", slurm.script,
+                 "Job script for `pd workers add --slurm` (deploy/slurm/pd-worker.sbatch); without it, no Slurm")
+      ->check(CLI::ExistingFile);
+  app.add_option("--slurm-worker", slurm.worker_binary,
+                 "The pd-worker the script starts on compute nodes (default: the one beside this pd-scheduler)");
+  app.add_option("--slurm-connect", slurm.connect,
+                 "The workers endpoint as compute nodes reach it (default: --workers-endpoint as bound)");
+  app.add_option("--slurm-server-key", slurm.server_key_file,
+                 "With --key: this scheduler's public key file (PREFIX.pub), given to Slurm workers");
+  app.add_option("--slurm-worker-key", slurm.worker_key_file,
+                 "With --key: the key pair Slurm workers use (PREFIX.key; its public key in --authorized-keys)");
+  app.add_option("--slurm-log-dir", slurm.log_dir, "Folder of the Slurm workers' logs (default FARM_DIR/slurm)");
+  app.add_option("--slurm-job-name", slurm.job_name, "Slurm job name of this farm's workers")->capture_default_str();
+  app.add_option("--slurm-poll", slurm.poll_seconds, "Seconds between squeue polls")
+      ->check(CLI::Range(0.2, 3600.0))
+      ->capture_default_str();
+  app.add_option("--slurm-scheduler-timeout", slurm.scheduler_timeout_s,
+                 "Seconds a Slurm worker waits for a silent scheduler before it exits (pd-worker --scheduler-timeout)")
+      ->check(CLI::Range(1.0, 1e7))
+      ->capture_default_str();
   app.add_option("--generate-keys", generate_prefix,
                  "Write a new key pair to PREFIX.key (mode 0600) and PREFIX.pub, then exit");
   try {
@@ -65,6 +86,8 @@ int main(int argc, char** argv) {
     }
     // Before the farm folder or its database is created: a refused start leaves nothing behind.
     pd::scheduler::check_security_options(options);
+    pd::scheduler::complete_slurm_options(options.slurm, options.dir, options.workers_endpoint, "/proc/self/exe",
+                                          !options.key_file.empty());
   } catch (const pd::InputError& e) {
     std::fprintf(stderr, "pd-scheduler: error: %s\n", e.what());
     return 2;

@@ -21,6 +21,10 @@ std::vector<double> as_vector(const Positions& x) { return std::vector<double>(x
 
 }  // namespace
 
+double unix_now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
 NewTask as_new_task(const TaskRow& t) {
   NewTask n;
   n.kind = t.kind;
@@ -48,6 +52,12 @@ Scheduler::Scheduler(const SchedulerOptions& options)
   zap_ = secure_sockets(ctx_, options_, {&workers_, &clients_});
   workers_.bind(options.workers_endpoint);
   clients_.bind(options.clients_endpoint);
+  // Slurm workers connect to the endpoint as bound (port 0 resolved) unless told another address.
+  if (options_.slurm.connect.empty()) options_.slurm.connect = workers_endpoint();
+  slurm_ = std::make_unique<SlurmPool>(options_.slurm, options.dir + "/farm.sqlite",
+                                       [this](const std::string& kind, const std::string& message) {
+                                         event(kind, 0, 0, 0, message);
+                                       });
   recover();
 }
 
@@ -90,8 +100,7 @@ std::string Scheduler::clients_endpoint() const { return farm::last_endpoint(cli
 
 void Scheduler::event(const std::string& kind, int64_t job, int64_t task, int64_t worker, const std::string& message,
                       bool persist) {
-  const double now = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-  nlohmann::json line = {{"time", now}, {"event", kind}};
+  nlohmann::json line = {{"time", unix_now()}, {"event", kind}};
   if (job) line["job"] = job;
   if (task) line["task"] = task;
   if (worker) line["worker"] = worker;
@@ -130,6 +139,20 @@ void Scheduler::turn() {
   dispatch();
   preempt_starved();
   heartbeats_and_liveness();
+  slurm_->tick(
+      unix_now(),
+      [this] {
+        for (const JobRow& j : store_->jobs())
+          if (j.state == protocol::JobState::queued || j.state == protocol::JobState::running) return true;
+        return false;
+      },
+      [this](const std::string& name) { return worker_busy(name); });
+}
+
+bool Scheduler::worker_busy(const std::string& name) const {
+  for (const auto& [identity, s] : sessions_)
+    if (s.name == name) return s.attempt != 0;
+  return false;
 }
 
 void Scheduler::send_worker(const std::string& identity, const protocol::Parts& parts) {
@@ -153,6 +176,7 @@ void Scheduler::dispatch() {
   if (!store_->has_ready_task()) return;
   for (auto& [identity, s] : sessions_) {
     if (s.attempt != 0 || s.draining) continue;
+    if (!s.slurm_job.empty() && slurm_->draining(s.name)) continue;  // pd workers remove: no new task
     // Claims are per worker (a task is not given to a worker that failed it, nor a job's tasks to a
     // worker blocklisted for it): nothing for this one may still leave something for the next.
     std::optional<Claim> claim = store_->claim_next(s.worker);
@@ -357,12 +381,14 @@ void Scheduler::lose(const std::string& identity, const std::string& why) {
     }
   }
   store_->set_worker_state(s.worker, "lost");
+  if (!s.slurm_job.empty()) slurm_->worker_lost(s.name, unix_now());
   sessions_.erase(it);
 }
 
 void Scheduler::end_attempt_of(Session& s) {
   s.attempt = s.task = s.job = 0;
   s.fed.clear();
+  if (!s.slurm_job.empty()) slurm_->cancel_drained(s.name, unix_now());  // pd workers remove waited for it
 }
 
 void Scheduler::cancel_attempts_of_job(int64_t job, const std::string& reason) {

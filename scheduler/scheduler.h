@@ -21,6 +21,7 @@
 #include "farm/curve.h"
 #include "protocol/protocol.h"
 #include "scheduler/job_files.h"
+#include "scheduler/slurm_pool.h"
 #include "store/task_store.h"
 
 namespace pd::scheduler {
@@ -33,7 +34,11 @@ struct SchedulerOptions {
   // CURVE (scheduler/security.h): this scheduler's key pair and the public keys it admits; both or
   // neither, and both whenever an endpoint is not loopback.
   std::string key_file, authorized_keys_file;
+  SlurmOptions slurm;  // workers started as Slurm jobs (scheduler/slurm_pool.h); disabled without a script
 };
+
+// Unix time, seconds (the task store's and the Slurm store's clock).
+double unix_now();
 
 constexpr int kLiveness = 3;
 
@@ -52,6 +57,7 @@ struct Session {
   bool draining = false;  // told to cancel; free once a heartbeat says it runs nothing
   std::set<int> fed;      // frames of the level below sent for the running attempt
   int progress = 0;       // the last frame the running attempt reported (its first frame before any)
+  std::string slurm_job;  // Hello.slurm_job: the Slurm job it runs as ("" when not a Slurm worker)
 };
 
 class Scheduler {
@@ -88,6 +94,10 @@ class Scheduler {
   protocol::Reply serve(protocol::CancelJob& m);
   protocol::Reply serve(protocol::RequeueJob& m);
   protocol::Reply serve(protocol::WorkersRequest& m);
+  protocol::Reply serve(protocol::AddSlurmWorkers& m);
+  protocol::Reply serve(protocol::RemoveSlurmWorkers& m);
+  // Whether the worker named `name` is connected and running an attempt (SlurmPool's Busy).
+  bool worker_busy(const std::string& name) const;
   protocol::JobStatus job_status(const JobRow& job);
 
   // scheduler.cpp
@@ -120,6 +130,7 @@ class Scheduler {
   std::unique_ptr<farm::ZapAuthenticator> zap_;
   zmq::socket_t workers_, clients_;
   std::unique_ptr<TaskStore> store_;
+  std::unique_ptr<SlurmPool> slurm_;  // after store_: its tables live in the same file
   JobFiles files_;
   std::map<std::string, Session> sessions_;  // by identity
   std::chrono::milliseconds heartbeat_;

@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "farm/messaging.h"
+#include "farm/slurm.h"
 #include "farm/task_graph.h"
 #include "scheduler/scheduler.h"
 #include "util/input_error.h"
@@ -55,6 +56,9 @@ void Scheduler::on_worker_message(const std::string& identity, const protocol::P
 }
 
 void Scheduler::on_report(const std::string& identity, protocol::Hello& m) {
+  // Refused before anything is stored (on_worker_message turns the throw into a Refused).
+  if (!m.slurm_job.empty() && !farm::valid_slurm_job_id(m.slurm_job))
+    throw InputError("field 'slurm_job': expected a Slurm job id (123 or 123_4), got '" + m.slurm_job.substr(0, 40) + "'");
   if (sessions_.count(identity)) lose(identity, "said hello again");
   Session s;
   s.worker = store_->add_worker(m.name, m.host, m.version, m.cores);
@@ -66,6 +70,10 @@ void Scheduler::on_report(const std::string& identity, protocol::Hello& m) {
     break;
   }
   s.name = m.name;
+  if (!m.slurm_job.empty()) {
+    s.slurm_job = m.slurm_job;
+    slurm_->worker_joined(m.slurm_job, m.name, unix_now());
+  }
   s.last_heard = s.last_sent = Clock::now();
   sessions_[identity] = s;
   protocol::Welcome w;
@@ -73,7 +81,8 @@ void Scheduler::on_report(const std::string& identity, protocol::Hello& m) {
   w.heartbeat_ms = options_.heartbeat_ms;
   send_worker(identity, protocol::encode(w));
   event("worker_joined", 0, 0, s.worker,
-        m.name + " on " + m.host + ", " + std::to_string(m.cores) + " cores, version " + m.version);
+        m.name + " on " + m.host + ", " + std::to_string(m.cores) + " cores, version " + m.version +
+            (m.slurm_job.empty() ? "" : ", Slurm job " + m.slurm_job));
 }
 
 void Scheduler::on_report(const std::string& identity, protocol::WorkerHeartbeat& m) {

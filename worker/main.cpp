@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -23,6 +24,15 @@ std::atomic<bool> g_stop{false};
 
 void on_signal(int) { g_stop = true; }
 
+// "<array job>_<array task>" (or "<job>") from the variables Slurm sets in a batch job; "" elsewhere.
+std::string slurm_job_from_environment() {
+  const char* array_job = std::getenv("SLURM_ARRAY_JOB_ID");
+  const char* array_task = std::getenv("SLURM_ARRAY_TASK_ID");
+  if (array_job && array_task && *array_job && *array_task) return std::string(array_job) + "_" + array_task;
+  const char* job = std::getenv("SLURM_JOB_ID");
+  return job ? job : "";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -39,6 +49,10 @@ int main(int argc, char** argv) {
   app.add_option("--server-key", options.server_key_file,
                  "The scheduler's public key file (its PREFIX.pub); with --key, for a scheduler beyond loopback");
   app.add_option("--key", options.key_file, "This worker's key pair (PREFIX.key from pd keys); with --server-key");
+  app.add_option("--scheduler-timeout", options.scheduler_timeout_s,
+                 "Exit (code 3) once nothing has come from the scheduler for this many seconds (0: retry for ever; "
+                 "the Slurm job script sets it, so that no allocation waits for a scheduler that is gone)")
+      ->check(CLI::Range(0.0, 1e7));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -47,6 +61,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string pid = std::to_string(getpid());
+  options.slurm_job = slurm_job_from_environment();
+  if (options.name.empty() && !options.slurm_job.empty()) options.name = "slurm-" + options.slurm_job;
   if (options.name.empty()) {
     char host[256] = {};
     gethostname(host, sizeof host - 1);

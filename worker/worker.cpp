@@ -40,8 +40,13 @@ std::string host_name() {
 // when it ended because the scheduler went silent (reconnect), false when asked to stop.
 class Session {
  public:
-  Session(zmq::context_t& ctx, const WorkerOptions& o, TaskRunner& runner, int wake_fd)
-      : socket_(ctx, zmq::socket_type::dealer), options_(o), runner_(runner), wake_fd_(wake_fd) {
+  // last_contact: when a message last came from the scheduler, updated by this session.
+  Session(zmq::context_t& ctx, const WorkerOptions& o, TaskRunner& runner, int wake_fd, Clock::time_point& last_contact)
+      : socket_(ctx, zmq::socket_type::dealer),
+        options_(o),
+        runner_(runner),
+        wake_fd_(wake_fd),
+        last_contact_(last_contact) {
     farm::configure_socket(socket_);
     if (o.curve) farm::apply_curve_client(socket_, *o.curve);
     // A refused handshake (this worker's key not authorized, or no CURVE here and CURVE there) ends
@@ -56,6 +61,7 @@ class Session {
     hello.version = PD_VERSION;
     hello.cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     hello.host = host_name();
+    hello.slurm_job = o.slurm_job;
     farm::send_parts(socket_, protocol::encode(hello));
     heartbeat_ = std::chrono::milliseconds(o.heartbeat_ms);
     last_heard_ = last_sent_ = Clock::now();
@@ -130,7 +136,7 @@ class Session {
   }
 
   void handle(const protocol::Parts& parts) {
-    last_heard_ = Clock::now();
+    last_heard_ = last_contact_ = Clock::now();
     protocol::Command command;
     try {
       command = protocol::decode_command(parts);
@@ -182,6 +188,7 @@ class Session {
   const WorkerOptions& options_;
   TaskRunner& runner_;
   int wake_fd_;
+  Clock::time_point& last_contact_;
   std::chrono::milliseconds heartbeat_;
   Clock::time_point last_heard_, last_sent_;
   bool welcomed_ = false;
@@ -207,13 +214,16 @@ int run_worker(const WorkerOptions& options, const std::atomic<bool>& stop) {
   HierarchyCache cache;
   auto backoff = kMinBackoff;
   int code = 0;
+  Clock::time_point last_contact = Clock::now();
+  const auto timeout = std::chrono::duration_cast<std::chrono::milliseconds>(
+      std::chrono::duration<double>(options.scheduler_timeout_s));
   {
     TaskRunner runner(wake_fd, options.scratch_dir, cache, options.fail_level);
     while (!stop) {
       bool reconnect;
       bool welcomed;
       {
-        Session session(ctx, options, runner, wake_fd);
+        Session session(ctx, options, runner, wake_fd, last_contact);
         reconnect = session.run(stop);
         welcomed = session.welcomed();
       }
@@ -225,8 +235,17 @@ int run_worker(const WorkerOptions& options, const std::atomic<bool>& stop) {
       }
       runner.take_outbox();  // reports of an attempt the scheduler has given away
       if (welcomed) backoff = kMinBackoff;  // a session that got through starts the backoff anew
-      log_line(options, "reconnecting", "in " + std::to_string(backoff.count()) + " ms");
-      sleep_unless_stopped(backoff, stop);
+      const auto silent = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - last_contact);
+      if (timeout.count() > 0 && silent >= timeout) {
+        log_line(options, "exiting", "nothing from the scheduler for " + std::to_string(silent.count() / 1000) +
+                                         " s (--scheduler-timeout " + std::to_string(timeout.count() / 1000) + ")");
+        code = kSchedulerGoneExit;
+        break;
+      }
+      // The wait never runs past the moment the timeout is reached, so that the exit is on time.
+      const auto wait = timeout.count() > 0 ? std::min(backoff, timeout - silent) : backoff;
+      log_line(options, "reconnecting", "in " + std::to_string(wait.count()) + " ms");
+      sleep_unless_stopped(wait, stop);
       backoff = std::min(backoff * 2, kMaxBackoff);
     }
   }

@@ -24,7 +24,15 @@ struct WorkerOptions {
   // by main() into `curve` and applied to every session's socket before it connects.
   std::string server_key_file, key_file;
   std::optional<farm::CurveClientKeys> curve;
+  // Exit (code kSchedulerGoneExit) once nothing has come from the scheduler for this long, seconds,
+  // counted from the last message heard (or from the start): a worker in a Slurm allocation must
+  // not hold it for ever when the scheduler is gone. 0: reconnect for ever.
+  double scheduler_timeout_s = 0.0;
+  // The Slurm job this worker runs as ("<array job>_<task>", see protocol Hello), "" outside Slurm.
+  std::string slurm_job;
 };
+
+constexpr int kSchedulerGoneExit = 3;
 
 constexpr int kLiveness = 3;  // missed heartbeats before the peer counts as gone
 constexpr std::chrono::milliseconds kMinBackoff{1000}, kMaxBackoff{32000};

@@ -34,7 +34,9 @@
 namespace pd::protocol {
 
 // Bumped on any change to a message's fields or meaning; peers with another version are refused.
-constexpr int kProtocolVersion = 2;  // 2: AssignTask.start, heartbeat ping/pong, RequeueJob
+// 2: AssignTask.start, heartbeat ping/pong, RequeueJob.
+// 3: Hello.slurm_job, AddSlurmWorkers / RemoveSlurmWorkers / SlurmAccepted, WorkersReply's Slurm part.
+constexpr int kProtocolVersion = 3;
 
 // Upper bound on a whole message (all parts), bytes; larger messages are refused when decoded (and
 // sockets set ZMQ_MAXMSGSIZE to it). 1 GiB: a job file fetched in one reply must fit.
@@ -177,6 +179,9 @@ struct Hello {
   std::string version;   // the worker's software version (PROJECT_VERSION)
   int cores = 1;         // hardware threads of its machine
   std::string host;
+  // The Slurm job this worker runs as, "<array job>_<array task>" (or "<job>" outside an array), from
+  // the SLURM_* variables Slurm gives a batch job; "" when not started by Slurm.
+  std::string slurm_job;
 };
 
 // The worker is alive; `attempt` is the attempt it is running (0 = idle). ping != 0 asks for an
@@ -267,7 +272,31 @@ struct RequeueJob {
 
 struct WorkersRequest {};
 
-using Request = std::variant<SubmitJob, RefineJob, StatusRequest, FetchRequest, CancelJob, RequeueJob, WorkersRequest>;
+// Start `count` workers as one Slurm job array (sbatch run by the scheduler with its --slurm-script;
+// docs/deploy.md). Empty strings and 0 leave Slurm's or the script's default. The values are checked
+// by farm/slurm.h's rules before anything runs.
+struct AddSlurmWorkers {
+  int count = 1;
+  std::string partition;   // sbatch --partition
+  std::string time_limit;  // sbatch --time, Slurm's format ("30", "2:00:00", "1-00:00:00")
+  int cpus = 0;            // sbatch --cpus-per-task
+  std::string memory;      // sbatch --mem ("4G", "500M")
+  // The number of Slurm workers the scheduler keeps running while work remains (submitting a
+  // replacement when one ends); -1 leaves the current target (0 at first: none kept).
+  int keep = -1;
+};
+
+// Drain Slurm workers: slurm_job is an array job ("123": all its workers) or one array task
+// ("123_4"). Pending or idle workers are cancelled (scancel) at once; a busy one finishes its task
+// first, unless `now`, which cancels it at once (its task goes to another worker). Lowers the keep
+// target by the number of workers removed.
+struct RemoveSlurmWorkers {
+  std::string slurm_job;
+  bool now = false;
+};
+
+using Request = std::variant<SubmitJob, RefineJob, StatusRequest, FetchRequest, CancelJob, RequeueJob, WorkersRequest,
+                             AddSlurmWorkers, RemoveSlurmWorkers>;
 
 // ---------------------------------------------------------------------------------------------------
 // Replies: scheduler -> client.
@@ -336,10 +365,35 @@ struct WorkerStatus {
   int64_t task = 0;        // running task, 0 when idle
   double seen_seconds_ago = 0.0;
   int tasks_done = 0;
+  std::string slurm_job;   // Hello.slurm_job ("" when not a Slurm worker)
+};
+
+// A Slurm array task the scheduler submitted (or a Slurm worker that connected on its own).
+struct SlurmWorkerStatus {
+  std::string slurm_job;   // "<array job>_<array task>"
+  // Slurm's job state as squeue last showed it (PENDING, RUNNING, COMPLETED, CANCELLED, TIMEOUT,
+  // FAILED, ...), "SUBMITTED" before the first poll, "CANCELLING" from the scheduler's scancel
+  // until squeue shows the end, "GONE" once squeue no longer lists it, "ENDED" for a job submitted
+  // by hand (not polled) once its worker is lost.
+  std::string state;
+  std::string worker;      // the name of the pd-worker it became ("" until it says hello)
+  bool draining = false;   // pd workers remove: cancelled once its task ends
+  bool replacement = false;  // submitted by the scheduler to keep the target (AddSlurmWorkers.keep)
+  double submitted_seconds_ago = 0.0;
+  std::string reason;      // squeue's reason (pending: "Resources", ...) or why it ended
 };
 
 struct WorkersReply {
   std::vector<WorkerStatus> workers;
+  std::vector<SlurmWorkerStatus> slurm;  // newest first; ended ones are kept for an hour
+  int slurm_keep = 0;                    // the keep target (AddSlurmWorkers.keep)
+};
+
+// Reply to AddSlurmWorkers and RemoveSlurmWorkers.
+struct SlurmAccepted {
+  std::string slurm_job;               // the array job submitted, or the one named
+  std::vector<std::string> tasks;      // its array tasks ("123_0", ...) added, cancelled or draining
+  std::string message;
 };
 
 // The request could not be served; message says why (e.g. "no job 17").
@@ -347,7 +401,7 @@ struct ErrorReply {
   std::string message;
 };
 
-using Reply = std::variant<Submitted, Accepted, StatusReply, FetchReply, WorkersReply, ErrorReply>;
+using Reply = std::variant<Submitted, Accepted, StatusReply, FetchReply, WorkersReply, SlurmAccepted, ErrorReply>;
 
 // ---------------------------------------------------------------------------------------------------
 // Encoding and decoding. encode(x) gives the parts of x; decode_<family>(parts) gives the message or
@@ -376,6 +430,8 @@ Parts encode(const FetchRequest& m);
 Parts encode(const CancelJob& m);
 Parts encode(const RequeueJob& m);
 Parts encode(const WorkersRequest& m);
+Parts encode(const AddSlurmWorkers& m);
+Parts encode(const RemoveSlurmWorkers& m);
 Parts encode(const Request& m);
 
 Parts encode(const Submitted& m);
@@ -383,6 +439,7 @@ Parts encode(const Accepted& m);
 Parts encode(const StatusReply& m);
 Parts encode(const FetchReply& m);
 Parts encode(const WorkersReply& m);
+Parts encode(const SlurmAccepted& m);
 Parts encode(const ErrorReply& m);
 Parts encode(const Reply& m);
 

@@ -68,6 +68,19 @@ Json worker_json(const WorkerStatus& w) {
   j["task"] = w.task;
   j["seen_seconds_ago"] = wire::number(w.seen_seconds_ago);
   j["tasks_done"] = w.tasks_done;
+  j["slurm_job"] = w.slurm_job;
+  return j;
+}
+
+Json slurm_json(const SlurmWorkerStatus& w) {
+  Json j = Json::object();
+  j["slurm_job"] = w.slurm_job;
+  j["state"] = w.state;
+  j["worker"] = w.worker;
+  j["draining"] = w.draining;
+  j["replacement"] = w.replacement;
+  j["submitted_seconds_ago"] = wire::number(w.submitted_seconds_ago);
+  j["reason"] = w.reason;
   return j;
 }
 
@@ -80,6 +93,9 @@ void put_fields(Json& into, const StatusReply& m) {
 void put_fields(Json& into, const WorkersReply& m) {
   into["workers"] = Json::array();
   for (const WorkerStatus& w : m.workers) into["workers"].push_back(worker_json(w));
+  into["slurm"] = Json::array();
+  for (const SlurmWorkerStatus& w : m.slurm) into["slurm"].push_back(slurm_json(w));
+  into["slurm_keep"] = m.slurm_keep;
 }
 
 }  // namespace
@@ -116,6 +132,14 @@ Parts encode(const FetchReply& m) {
 Parts encode(const WorkersReply& m) {
   Json h = wire::header(wire::kWorkersReply);
   put_fields(h, m);
+  return wire::finish(h);
+}
+
+Parts encode(const SlurmAccepted& m) {
+  Json h = wire::header(wire::kSlurmAccepted);
+  h["slurm_job"] = m.slurm_job;
+  h["tasks"] = m.tasks;
+  h["message"] = m.message;
   return wire::finish(h);
 }
 
@@ -198,6 +222,19 @@ WorkerStatus read_worker(const Fields& f) {
   w.task = f.id("task");
   w.seen_seconds_ago = f.number("seen_seconds_ago");
   w.tasks_done = f.count("tasks_done");
+  w.slurm_job = f.text("slurm_job");
+  return w;
+}
+
+SlurmWorkerStatus read_slurm_worker(const Fields& f) {
+  SlurmWorkerStatus w;
+  w.slurm_job = f.text("slurm_job");
+  w.state = f.text("state");
+  w.worker = f.text("worker");
+  w.draining = f.boolean("draining");
+  w.replacement = f.boolean("replacement");
+  w.submitted_seconds_ago = f.number("submitted_seconds_ago");
+  w.reason = f.text("reason");
   return w;
 }
 
@@ -235,7 +272,20 @@ Reply decode_fetch_reply(const Message& msg) {
 Reply decode_workers_reply(const Message& msg) {
   msg.expect_parts(1);
   WorkersReply m;
-  for (const Fields& w : msg.fields().objects("workers")) m.workers.push_back(read_worker(w));
+  const Fields f = msg.fields();
+  for (const Fields& w : f.objects("workers")) m.workers.push_back(read_worker(w));
+  for (const Fields& w : f.objects("slurm")) m.slurm.push_back(read_slurm_worker(w));
+  m.slurm_keep = f.count("slurm_keep");
+  return m;
+}
+
+Reply decode_slurm_accepted(const Message& msg) {
+  msg.expect_parts(1);
+  const Fields f = msg.fields();
+  SlurmAccepted m;
+  m.slurm_job = f.text("slurm_job");
+  m.tasks = f.texts("tasks");
+  m.message = f.text("message");
   return m;
 }
 
@@ -245,12 +295,13 @@ Reply decode_error(const Message& msg) {
 }
 
 using Decoder = Reply (*)(const Message&);
-constexpr std::array<std::pair<const char*, Decoder>, 6> kDecoders{{
+constexpr std::array<std::pair<const char*, Decoder>, 7> kDecoders{{
     {wire::kSubmitted, decode_submitted},
     {wire::kAccepted, decode_accepted},
     {wire::kStatusReply, decode_status_reply},
     {wire::kFetchReply, decode_fetch_reply},
     {wire::kWorkersReply, decode_workers_reply},
+    {wire::kSlurmAccepted, decode_slurm_accepted},
     {wire::kError, decode_error},
 }};
 

@@ -18,6 +18,7 @@ Parts encode(const Hello& m) {
   h["version"] = m.version;
   h["cores"] = m.cores;
   h["host"] = m.host;
+  h["slurm_job"] = m.slurm_job;
   return wire::finish(h);
 }
 
@@ -92,6 +93,7 @@ Report decode_hello(const Message& msg) {
   m.version = f.text("version");
   m.cores = f.count("cores");
   m.host = f.text("host");
+  m.slurm_job = f.text("slurm_job");
   return m;
 }
 

@@ -49,6 +49,24 @@ Parts encode(const CancelJob& m) { return encode_job(wire::kCancelJob, m.job); }
 Parts encode(const RequeueJob& m) { return encode_job(wire::kRequeue, m.job); }
 Parts encode(const WorkersRequest&) { return wire::finish(wire::header(wire::kWorkers)); }
 
+Parts encode(const AddSlurmWorkers& m) {
+  Json h = wire::header(wire::kAddSlurm);
+  h["count"] = m.count;
+  h["partition"] = m.partition;
+  h["time_limit"] = m.time_limit;
+  h["cpus"] = m.cpus;
+  h["memory"] = m.memory;
+  h["keep"] = m.keep;
+  return wire::finish(h);
+}
+
+Parts encode(const RemoveSlurmWorkers& m) {
+  Json h = wire::header(wire::kRemoveSlurm);
+  h["slurm_job"] = m.slurm_job;
+  h["now"] = m.now;
+  return wire::finish(h);
+}
+
 Parts encode(const Request& m) {
   return std::visit([](const auto& r) { return encode(r); }, m);
 }
@@ -96,8 +114,30 @@ Request decode_workers(const Message& msg) {
   return WorkersRequest{};
 }
 
+Request decode_add_slurm(const Message& msg) {
+  msg.expect_parts(1);
+  const wire::Fields f = msg.fields();
+  AddSlurmWorkers m;
+  m.count = f.count("count");
+  m.partition = f.text("partition");
+  m.time_limit = f.text("time_limit");
+  m.cpus = f.count("cpus");
+  m.memory = f.text("memory");
+  m.keep = f.integer("keep");
+  return m;
+}
+
+Request decode_remove_slurm(const Message& msg) {
+  msg.expect_parts(1);
+  const wire::Fields f = msg.fields();
+  RemoveSlurmWorkers m;
+  m.slurm_job = f.text("slurm_job");
+  m.now = f.boolean("now");
+  return m;
+}
+
 using Decoder = Request (*)(const Message&);
-constexpr std::array<std::pair<const char*, Decoder>, 7> kDecoders{{
+constexpr std::array<std::pair<const char*, Decoder>, 9> kDecoders{{
     {wire::kSubmit, decode_submit},
     {wire::kRefine, decode_refine},
     {wire::kStatus, decode_job<StatusRequest>},
@@ -105,6 +145,8 @@ constexpr std::array<std::pair<const char*, Decoder>, 7> kDecoders{{
     {wire::kCancelJob, decode_job<CancelJob>},
     {wire::kRequeue, decode_job<RequeueJob>},
     {wire::kWorkers, decode_workers},
+    {wire::kAddSlurm, decode_add_slurm},
+    {wire::kRemoveSlurm, decode_remove_slurm},
 }};
 
 }  // namespace

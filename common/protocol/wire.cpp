@@ -13,13 +13,14 @@ static_assert(std::numeric_limits<double>::is_iec559 && sizeof(double) == 8, "do
 
 namespace {
 
-constexpr std::array<std::pair<const char*, Family>, 25> kTypes{{
+constexpr std::array<std::pair<const char*, Family>, 28> kTypes{{
     {kWelcome, Family::command},       {kAssign, Family::command},         {kBelowFrame, Family::command},
     {kCancelTask, Family::command},    {kHeartbeat, Family::command},      {kRefused, Family::command},
     {kHello, Family::report},          {kWorkerHeartbeat, Family::report}, {kFrame, Family::report},
     {kTaskDone, Family::report},       {kTaskFailed, Family::report},      {kHierarchyDone, Family::report},
     {kSubmit, Family::request},        {kRefine, Family::request},         {kStatus, Family::request},
     {kFetch, Family::request},         {kCancelJob, Family::request},      {kRequeue, Family::request},        {kWorkers, Family::request},
+    {kAddSlurm, Family::request},      {kRemoveSlurm, Family::request},    {kSlurmAccepted, Family::reply},
     {kSubmitted, Family::reply},       {kAccepted, Family::reply},         {kStatusReply, Family::reply},
     {kFetchReply, Family::reply},      {kWorkersReply, Family::reply},     {kError, Family::reply},
 }};

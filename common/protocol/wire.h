@@ -53,11 +53,14 @@ constexpr char kFetch[] = "fetch";
 constexpr char kCancelJob[] = "cancel_job";
 constexpr char kRequeue[] = "requeue";
 constexpr char kWorkers[] = "workers";
+constexpr char kAddSlurm[] = "add_slurm_workers";
+constexpr char kRemoveSlurm[] = "remove_slurm_workers";
 constexpr char kSubmitted[] = "submitted";
 constexpr char kAccepted[] = "accepted";
 constexpr char kStatusReply[] = "status_reply";
 constexpr char kFetchReply[] = "fetch_reply";
 constexpr char kWorkersReply[] = "workers_reply";
+constexpr char kSlurmAccepted[] = "slurm_accepted";
 constexpr char kError[] = "error";
 
 enum class Family { command, report, request, reply };

@@ -53,8 +53,11 @@ StatusReply sample_status() {
 }
 
 WorkersReply sample_workers() {
-  return WorkersReply{
-      {{1, "w1", "node-1", "0.4.0", 8, "busy", 3, 0.25, 7}, {2, "w2", "node-2", "0.4.0", 4, "lost", 0, 31.0, 0}}};
+  return WorkersReply{{{1, "w1", "node-1", "0.4.0", 8, "busy", 3, 0.25, 7, "4711_0"},
+                       {2, "w2", "node-2", "0.4.0", 4, "lost", 0, 31.0, 0, ""}},
+                      {{"4711_0", "RUNNING", "slurm-4711_0", false, true, 12.5, "None"},
+                       {"4711_1", "CANCELLED", "", true, false, 0.5, "scancel"}},
+                      3};
 }
 
 void expect_same(const JobStatus& a, const JobStatus& b) {
@@ -131,7 +134,28 @@ TEST(ProtocolReplies, WorkersReplyRoundTripsEveryField) {
     EXPECT_EQ(s.task, t.task);
     EXPECT_TRUE(same_bits(s.seen_seconds_ago, t.seen_seconds_ago));
     EXPECT_EQ(s.tasks_done, t.tasks_done);
+    EXPECT_EQ(s.slurm_job, t.slurm_job);
   }
+  ASSERT_EQ(b.slurm.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const SlurmWorkerStatus &s = m.slurm[i], &t = b.slurm[i];
+    EXPECT_EQ(s.slurm_job, t.slurm_job);
+    EXPECT_EQ(s.state, t.state);
+    EXPECT_EQ(s.worker, t.worker);
+    EXPECT_EQ(s.draining, t.draining);
+    EXPECT_EQ(s.replacement, t.replacement);
+    EXPECT_TRUE(same_bits(s.submitted_seconds_ago, t.submitted_seconds_ago));
+    EXPECT_EQ(s.reason, t.reason);
+  }
+  EXPECT_EQ(b.slurm_keep, 3);
+}
+
+TEST(ProtocolReplies, SlurmAcceptedRoundTripsEveryField) {
+  const SlurmAccepted m{"4711", {"4711_0", "4711_1"}, "2 workers submitted"};
+  const SlurmAccepted b = round_trip(m);
+  EXPECT_EQ(b.slurm_job, "4711");
+  EXPECT_EQ(b.tasks, m.tasks);
+  EXPECT_EQ(b.message, m.message);
 }
 
 TEST(ProtocolReplies, JsonTextIsPrettyWithStructFieldNamesInOrderAndStateNames) {
@@ -185,7 +209,7 @@ TEST(ProtocolReplies, JsonTextIsPrettyWithStructFieldNamesInOrderAndStateNames) 
 })";
   EXPECT_EQ(to_json_text(m), expected);
   EXPECT_EQ(to_json_text(StatusReply{}), "{\n  \"jobs\": []\n}");
-  const WorkersReply w{{{2, "w2", "node-2", "0.4.0", 4, "idle", 0, 1.5, 3}}};
+  const WorkersReply w{{{2, "w2", "node-2", "0.4.0", 4, "idle", 0, 1.5, 3, ""}}, {}, 0};
   EXPECT_EQ(to_json_text(w), R"({
   "workers": [
     {
@@ -197,9 +221,12 @@ TEST(ProtocolReplies, JsonTextIsPrettyWithStructFieldNamesInOrderAndStateNames) 
       "state": "idle",
       "task": 0,
       "seen_seconds_ago": 1.5,
-      "tasks_done": 3
+      "tasks_done": 3,
+      "slurm_job": ""
     }
-  ]
+  ],
+  "slurm": [],
+  "slurm_keep": 0
 })");
 }
 
@@ -220,8 +247,10 @@ TEST(ProtocolReplies, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(status, "/jobs/0/levels/1", "jobs[0].levels[1]."), 4);
   EXPECT_EQ(check_every_field_required(status, "/jobs/0/tasks/2", "jobs[0].tasks[2]."), 10);
   const Parts workers = encode(sample_workers());
-  EXPECT_EQ(check_every_field_required(workers, "", ""), 1);
-  EXPECT_EQ(check_every_field_required(workers, "/workers/1", "workers[1]."), 9);
+  EXPECT_EQ(check_every_field_required(workers, "", ""), 3);
+  EXPECT_EQ(check_every_field_required(workers, "/workers/1", "workers[1]."), 10);
+  EXPECT_EQ(check_every_field_required(workers, "/slurm/1", "slurm[1]."), 7);
+  EXPECT_EQ(check_every_field_required(encode(SlurmAccepted{"1", {"1_0"}, "m"}), "", ""), 3);
 }
 
 TEST(ProtocolReplies, EveryFieldOfTheWrongTypeIsRefusedByName) {
@@ -235,8 +264,10 @@ TEST(ProtocolReplies, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(status, "/jobs/0/levels/0", "jobs[0].levels[0]."), 4);
   EXPECT_EQ(check_every_field_typed(status, "/jobs/0/tasks/1", "jobs[0].tasks[1]."), 10);
   const Parts workers = encode(sample_workers());
-  EXPECT_EQ(check_every_field_typed(workers, "", ""), 1);
-  EXPECT_EQ(check_every_field_typed(workers, "/workers/0", "workers[0]."), 9);
+  EXPECT_EQ(check_every_field_typed(workers, "", ""), 3);
+  EXPECT_EQ(check_every_field_typed(workers, "/workers/0", "workers[0]."), 10);
+  EXPECT_EQ(check_every_field_typed(workers, "/slurm/0", "slurm[0]."), 7);
+  EXPECT_EQ(check_every_field_typed(encode(SlurmAccepted{"1", {"1_0"}, "m"}), "", ""), 3);
 }
 
 TEST(ProtocolReplies, UnknownStateAndKindNamesAreRefusedWithTheAllowedOnes) {

@@ -72,6 +72,33 @@ TEST(ProtocolRequests, JobRequestsRoundTrip) {
   EXPECT_TRUE(std::holds_alternative<RequeueJob>(decode_request(encode(RequeueJob{5}))));
 }
 
+AddSlurmWorkers sample_add_slurm() {
+  AddSlurmWorkers m;
+  m.count = 8;
+  m.partition = "gpu-short";
+  m.time_limit = "1-02:00:00";
+  m.cpus = 4;
+  m.memory = "16G";
+  m.keep = 6;
+  return m;
+}
+
+TEST(ProtocolRequests, SlurmRequestsRoundTripEveryField) {
+  const AddSlurmWorkers m = sample_add_slurm();
+  const AddSlurmWorkers b = round_trip(m);
+  EXPECT_EQ(b.count, 8);
+  EXPECT_EQ(b.partition, "gpu-short");
+  EXPECT_EQ(b.time_limit, "1-02:00:00");
+  EXPECT_EQ(b.cpus, 4);
+  EXPECT_EQ(b.memory, "16G");
+  EXPECT_EQ(b.keep, 6);
+  EXPECT_EQ(round_trip(AddSlurmWorkers{}).keep, -1);  // "leave the target" survives the wire
+  const RemoveSlurmWorkers r = round_trip(RemoveSlurmWorkers{"4711_2", true});
+  EXPECT_EQ(r.slurm_job, "4711_2");
+  EXPECT_TRUE(r.now);
+  EXPECT_FALSE(round_trip(RemoveSlurmWorkers{"4711", false}).now);
+}
+
 TEST(ProtocolRequests, MessagesOfOtherFamiliesAreRefused) {
   EXPECT_EQ(error_of(encode(Welcome{})), "welcome: not a client request (it is a scheduler command)");
   EXPECT_EQ(error_of(encode(Hello{})), "hello: not a client request (it is a worker report)");
@@ -85,6 +112,8 @@ TEST(ProtocolRequests, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(encode(FetchRequest{1})), 1);
   EXPECT_EQ(check_every_field_required(encode(CancelJob{1})), 1);
   EXPECT_EQ(check_every_field_required(encode(RequeueJob{1})), 1);
+  EXPECT_EQ(check_every_field_required(encode(sample_add_slurm())), 6);
+  EXPECT_EQ(check_every_field_required(encode(RemoveSlurmWorkers{"1", true})), 2);
   const Parts parts = encode(sample_submit());
   int checked = 0;
   for (const char* name : {"name", "text", "files"}) {
@@ -109,6 +138,8 @@ TEST(ProtocolRequests, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(encode(FetchRequest{1})), 1);
   EXPECT_EQ(check_every_field_typed(encode(CancelJob{1})), 1);
   EXPECT_EQ(check_every_field_typed(encode(RequeueJob{1})), 1);
+  EXPECT_EQ(check_every_field_typed(encode(sample_add_slurm())), 6);
+  EXPECT_EQ(check_every_field_typed(encode(RemoveSlurmWorkers{"1", true})), 2);
   const Parts parts = encode(sample_submit());
   Json h = header(parts);
   h["scene"]["files"] = Json::array({"meshes/cube.obj"});

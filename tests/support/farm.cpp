@@ -60,7 +60,7 @@ void Farm::start_scheduler() {
                std::to_string(options_.heartbeat_ms)};
   argv.insert(argv.end(), options_.scheduler_args.begin(), options_.scheduler_args.end());
   scheduler_ = Process();
-  scheduler_.start(argv, {}, out, logs_.back());
+  scheduler_.start(argv, options_.scheduler_env, out, logs_.back());
   const auto line = read_first_line(out, 20s, &scheduler_);
   if (!line) throw std::runtime_error("pd-scheduler printed no first line; its log:\n" + file_tail(logs_.back()));
   const json listening = json::parse(*line);

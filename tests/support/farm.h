@@ -31,6 +31,7 @@ struct FarmOptions {
   int workers = 2;
   int heartbeat_ms = 1000;
   Args scheduler_args;  // added to pd-scheduler's command line
+  EnvAdditions scheduler_env;  // added to pd-scheduler's environment (e.g. SLURM_CONF for its sbatch calls)
   Args worker_args;     // added to every pd-worker's
   Args client_args;     // added to every pd command (after --farm)
   bool wait_for_workers = true;  // the constructor returns once every worker is idle

@@ -85,7 +85,7 @@ std::vector<Parts> reports() {
   done.levels = 2;
   done.vertices = {4, 8};
   done.blob = "HDF5 but not really";
-  return {protocol::encode(protocol::Hello{"fuzz", "0.0", 1, "fuzzhost"}),
+  return {protocol::encode(protocol::Hello{"fuzz", "0.0", 1, "fuzzhost", ""}),
           protocol::encode(protocol::WorkerHeartbeat{kId, 0}),
           protocol::encode(frame),
           protocol::encode(protocol::TaskDone{kId, kId + 1, 0, false, 1.5}),
@@ -122,7 +122,7 @@ std::vector<Parts> replies() {
           protocol::encode(protocol::Accepted{kId, "fuzz"}),
           protocol::encode(protocol::StatusReply{{job}}),
           protocol::encode(protocol::FetchReply{kId, "HDF5 but not really"}),
-          protocol::encode(protocol::WorkersReply{{worker}}),
+          protocol::encode(protocol::WorkersReply{{worker}, {}, 0}),
           protocol::encode(protocol::ErrorReply{"fuzz"})};
 }
 
