@@ -81,6 +81,7 @@ class Scheduler {
   void on_report(const std::string& identity, protocol::TaskDone& m);
   void on_report(const std::string& identity, protocol::TaskFailed& m);
   void on_report(const std::string& identity, protocol::HierarchyDone& m);
+  void on_report(const std::string& identity, protocol::Goodbye& m);
   // The session running `attempt`, or nullptr after refusing the report (logged, Refused sent).
   Session* attempt_session(const std::string& identity, int64_t attempt, int64_t task, const char* what);
   void refuse(const std::string& identity, const std::string& reason);

@@ -226,6 +226,13 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskFailed& m) 
   attempt_failed(*s, store_->task(m.task), m.message);
 }
 
+// A stopping worker: lost now rather than after the liveness time, so its task moves at once (a
+// Slurm worker's scancel or time limit, a systemd stop). Its attempt's stored frames stay: the next
+// attempt continues from them.
+void Scheduler::on_report(const std::string& identity, protocol::Goodbye& m) {
+  lose(identity, "said goodbye: " + m.reason.substr(0, 200));
+}
+
 void Scheduler::on_report(const std::string& identity, protocol::HierarchyDone& m) {
   Session* s = attempt_session(identity, m.attempt, m.task, "hierarchy_done");
   if (!s) return;

@@ -76,6 +76,7 @@ class Session {
         if (e.num() != EINTR) throw;
       }
     }
+    say_goodbye();
     return false;
   }
 
@@ -114,6 +115,23 @@ class Session {
   void send(const protocol::Parts& parts) {
     farm::send_parts(socket_, parts);
     last_sent_ = Clock::now();
+  }
+
+  // Asked to stop: the scheduler hears it now and gives the running attempt away at once. Best
+  // effort (the send is bounded by sndtimeo; LINGER 0 drops what is still queued at close).
+  void say_goodbye() {
+    if (!welcomed_) return;
+    protocol::Goodbye g;
+    g.attempt = runner_.attempt();
+    g.reason = "stopping on a signal" + std::string(g.attempt ? " during attempt " + std::to_string(g.attempt) : "");
+    try {
+      send(protocol::encode(g));
+      // LINGER 0 would drop the message if the socket closed before libzmq wrote it: give the I/O
+      // thread a moment (a local or LAN write takes well under this).
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    } catch (const zmq::error_t&) {
+      // the scheduler is unreachable: it loses this worker by liveness instead
+    }
   }
 
   void send_heartbeat() {

@@ -59,9 +59,11 @@ std::optional<protocol::Parts> recv_parts_within(zmq::socket_t& socket, std::chr
   zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   for (;;) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-    if (left.count() <= 0) return std::nullopt;
-    zmq::poll(&item, 1, left);
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= deadline) return std::nullopt;
+    // Rounded up: a truncated 0 ms would return up to 1 ms before the deadline, which a caller
+    // timing the wait (FarmClient: "interrupted" when it returns early) would misread.
+    zmq::poll(&item, 1, std::chrono::ceil<std::chrono::milliseconds>(deadline - now));
     if (item.revents & ZMQ_POLLIN) return recv_parts(socket);
   }
 }

@@ -35,7 +35,8 @@ namespace pd::protocol {
 
 // Bumped on any change to a message's fields or meaning; peers with another version are refused.
 // 2: AssignTask.start, heartbeat ping/pong, RequeueJob.
-// 3: Hello.slurm_job, AddSlurmWorkers / RemoveSlurmWorkers / SlurmAccepted, WorkersReply's Slurm part.
+// 3: Hello.slurm_job, Goodbye, AddSlurmWorkers / RemoveSlurmWorkers / SlurmAccepted, WorkersReply's
+//    Slurm part.
 constexpr int kProtocolVersion = 3;
 
 // Upper bound on a whole message (all parts), bytes; larger messages are refused when decoded (and
@@ -228,7 +229,15 @@ struct HierarchyDone {
   std::string blob;
 };
 
-using Report = std::variant<Hello, WorkerHeartbeat, FrameReport, TaskDone, TaskFailed, HierarchyDone>;
+// The worker is stopping (SIGTERM from Slurm's scancel or time limit, systemd, Ctrl-C): its session
+// ends now and the attempt it ran (0: none) goes to another worker at once, instead of after the
+// liveness time. Sent once, best effort: a worker that dies without it is lost by liveness.
+struct Goodbye {
+  int64_t attempt = 0;
+  std::string reason;
+};
+
+using Report = std::variant<Hello, WorkerHeartbeat, FrameReport, TaskDone, TaskFailed, HierarchyDone, Goodbye>;
 
 // ---------------------------------------------------------------------------------------------------
 // Requests: client -> scheduler. Each gets exactly one Reply (an ErrorReply when it cannot be served).
@@ -421,6 +430,7 @@ Parts encode(const FrameReport& m);
 Parts encode(const TaskDone& m);
 Parts encode(const TaskFailed& m);
 Parts encode(const HierarchyDone& m);
+Parts encode(const Goodbye& m);
 Parts encode(const Report& m);
 
 Parts encode(const SubmitJob& m);

@@ -76,6 +76,13 @@ Parts encode(const HierarchyDone& m) {
   return wire::finish(h, {m.blob});
 }
 
+Parts encode(const Goodbye& m) {
+  Json h = wire::header(wire::kGoodbye);
+  h["attempt"] = m.attempt;
+  h["reason"] = m.reason;
+  return wire::finish(h);
+}
+
 Parts encode(const Report& m) {
   return std::visit([](const auto& r) { return encode(r); }, m);
 }
@@ -169,14 +176,21 @@ Report decode_hierarchy_done(const Message& msg) {
   return m;
 }
 
+Report decode_goodbye(const Message& msg) {
+  msg.expect_parts(1);
+  const wire::Fields f = msg.fields();
+  return Goodbye{f.id("attempt"), f.text("reason")};
+}
+
 using Decoder = Report (*)(const Message&);
-constexpr std::array<std::pair<const char*, Decoder>, 6> kDecoders{{
+constexpr std::array<std::pair<const char*, Decoder>, 7> kDecoders{{
     {wire::kHello, decode_hello},
     {wire::kWorkerHeartbeat, decode_worker_heartbeat},
     {wire::kFrame, decode_frame},
     {wire::kTaskDone, decode_task_done},
     {wire::kTaskFailed, decode_task_failed},
     {wire::kHierarchyDone, decode_hierarchy_done},
+    {wire::kGoodbye, decode_goodbye},
 }};
 
 }  // namespace

@@ -13,7 +13,7 @@ static_assert(std::numeric_limits<double>::is_iec559 && sizeof(double) == 8, "do
 
 namespace {
 
-constexpr std::array<std::pair<const char*, Family>, 28> kTypes{{
+constexpr std::array<std::pair<const char*, Family>, 29> kTypes{{
     {kWelcome, Family::command},       {kAssign, Family::command},         {kBelowFrame, Family::command},
     {kCancelTask, Family::command},    {kHeartbeat, Family::command},      {kRefused, Family::command},
     {kHello, Family::report},          {kWorkerHeartbeat, Family::report}, {kFrame, Family::report},
@@ -21,6 +21,7 @@ constexpr std::array<std::pair<const char*, Family>, 28> kTypes{{
     {kSubmit, Family::request},        {kRefine, Family::request},         {kStatus, Family::request},
     {kFetch, Family::request},         {kCancelJob, Family::request},      {kRequeue, Family::request},        {kWorkers, Family::request},
     {kAddSlurm, Family::request},      {kRemoveSlurm, Family::request},    {kSlurmAccepted, Family::reply},
+    {kGoodbye, Family::report},
     {kSubmitted, Family::reply},       {kAccepted, Family::reply},         {kStatusReply, Family::reply},
     {kFetchReply, Family::reply},      {kWorkersReply, Family::reply},     {kError, Family::reply},
 }};

@@ -46,6 +46,7 @@ constexpr char kFrame[] = "frame";
 constexpr char kTaskDone[] = "task_done";
 constexpr char kTaskFailed[] = "task_failed";
 constexpr char kHierarchyDone[] = "hierarchy_done";
+constexpr char kGoodbye[] = "goodbye";
 constexpr char kSubmit[] = "submit";
 constexpr char kRefine[] = "refine";
 constexpr char kStatus[] = "status";

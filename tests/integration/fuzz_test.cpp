@@ -696,7 +696,8 @@ struct Cases {
 void unregistered_and_idle_cases(HandPeer& p, const protocol::Hello& hello, protocol::HierarchyDone done, int v0,
                                  Cases& c) {
   c.expect("hello of protocol version 1", p.refusal(with_version(protocol::encode(hello), 1)),
-           "malformed report: hello: protocol version 1, this program speaks 2");
+           "malformed report: hello: protocol version 1, this program speaks " +
+               std::to_string(protocol::kProtocolVersion));
   c.expect("a command on the workers socket", p.refusal(protocol::encode(protocol::Welcome{1, 1000})),
            "welcome: not a worker report (it is a scheduler command)");
   c.expect("a request on the workers socket", p.refusal(protocol::encode(protocol::StatusRequest{0})),
@@ -778,9 +779,9 @@ void client_cases(zmq::context_t& ctx, const test::Farm& farm, int64_t failed_jo
   c.expect("a worker report on the clients socket",
            error_of(protocol::encode(protocol::Hello{"x", "fuzz", 1, "fuzzhost", ""})),
            "malformed request: hello: not a client request (it is a worker report)");
-  c.expect("a status request of protocol version 3",
-           error_of(with_version(protocol::encode(protocol::StatusRequest{0}), 3)),
-           "malformed request: status: protocol version 3");
+  c.expect("a status request of the next protocol version",
+           error_of(with_version(protocol::encode(protocol::StatusRequest{0}), protocol::kProtocolVersion + 1)),
+           "malformed request: status: protocol version " + std::to_string(protocol::kProtocolVersion + 1));
   c.expect("a status for a job never submitted", error_of(protocol::encode(protocol::StatusRequest{999})),
            "no job 999");
   c.expect("a cancel for a job never submitted", error_of(protocol::encode(protocol::CancelJob{999})), "no job 999");

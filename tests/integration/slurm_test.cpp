@@ -231,6 +231,7 @@ TEST_F(SlurmTest, ScancelOfABusySlurmWorkerReleasesItsTaskAKeptReplacementJoinsA
       << "no refinement task reached 3 frames on a Slurm worker";
   const std::string name = victim.at("worker").get<std::string>();
   const std::string id = name.substr(6);
+  const double cancelled = unix_now();
   const test::RunResult scancel = cluster_->command({"scancel", id}, 10s);
   ASSERT_EQ(scancel.exit_code, 0) << scancel.describe();
   std::printf("slurm: scancel %s while it ran task %lld at %d frames\n", id.c_str(),
@@ -247,6 +248,20 @@ TEST_F(SlurmTest, ScancelOfABusySlurmWorkerReleasesItsTaskAKeptReplacementJoinsA
   for (const json& e : test::log_events(farm.scheduler_log(), "task_released"))
     released = released || e.value("task", int64_t{0}) == victim.at("id").get<int64_t>();
   EXPECT_TRUE(released) << "the cancelled worker's task was not released";
+  // With the worker's goodbye (SIGTERM from slurmstepd) the task moves at once, not after 3 heartbeats.
+  for (const json& e : test::log_events(farm.scheduler_log(), "task_assigned"))
+    if (e.value("task", int64_t{0}) == victim.at("id").get<int64_t>() && e.at("time").get<double>() > cancelled) {
+      const double seconds = e.at("time").get<double>() - cancelled;
+      std::printf("slurm: task %lld assigned again %.2f s after the scancel\n",
+                  static_cast<long long>(victim.at("id").get<int64_t>()), seconds);
+      RecordProperty("scancel_to_reassigned_seconds", std::to_string(seconds));
+      break;
+    }
+  EXPECT_TRUE(test::log_events(farm.scheduler_log(), "worker_lost").size() >= 1);
+  bool goodbye = false;
+  for (const json& e : test::log_events(farm.scheduler_log(), "worker_lost"))
+    goodbye = goodbye || e.value("message", std::string()).find(name + ": said goodbye") == 0;
+  EXPECT_TRUE(goodbye) << "the cancelled worker did not say goodbye (lost by liveness instead)";
   json workers;
   EXPECT_TRUE(wait_for(
       [&] {

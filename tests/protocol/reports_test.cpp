@@ -93,6 +93,9 @@ TEST(ProtocolReports, TaskDoneFailedAndHierarchyDoneRoundTrip) {
   EXPECT_TRUE(d.vertical_start);
   EXPECT_TRUE(same_bits(d.seconds, 12.75));
   EXPECT_FALSE(round_trip(TaskDone{5, 6, 0, false, 0.0}).vertical_start);
+  const Goodbye g = round_trip(Goodbye{9, "stopping on a signal during attempt 9"});
+  EXPECT_EQ(g.attempt, 9);
+  EXPECT_EQ(g.reason, "stopping on a signal during attempt 9");
   const TaskFailed f = round_trip(TaskFailed{7, 8, "scenes/flag.json: no safe upsampling at frame 12"});
   EXPECT_EQ(f.attempt, 7);
   EXPECT_EQ(f.task, 8);
@@ -131,6 +134,7 @@ TEST(ProtocolReports, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(encode(sample_frame())), 7);
   EXPECT_EQ(check_every_field_required(encode(TaskDone{1, 2, 3, true, 4.0})), 5);
   EXPECT_EQ(check_every_field_required(encode(TaskFailed{1, 2, "m"})), 3);
+  EXPECT_EQ(check_every_field_required(encode(Goodbye{1, "m"})), 2);
   EXPECT_EQ(check_every_field_required(encode(sample_hierarchy())), 6);
 }
 
@@ -140,6 +144,7 @@ TEST(ProtocolReports, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(encode(sample_frame())), 7);
   EXPECT_EQ(check_every_field_typed(encode(TaskDone{1, 2, 3, true, 4.0})), 5);
   EXPECT_EQ(check_every_field_typed(encode(TaskFailed{1, 2, "m"})), 3);
+  EXPECT_EQ(check_every_field_typed(encode(Goodbye{1, "m"})), 2);
   EXPECT_EQ(check_every_field_typed(encode(sample_hierarchy())), 6);
 }
 

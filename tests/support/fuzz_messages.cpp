@@ -102,7 +102,9 @@ std::vector<Parts> requests() {
           protocol::encode(protocol::FetchRequest{kId}),
           protocol::encode(protocol::CancelJob{kId}),
           protocol::encode(protocol::RequeueJob{kId}),
-          protocol::encode(protocol::WorkersRequest{})};
+          protocol::encode(protocol::WorkersRequest{}),
+          protocol::encode(protocol::AddSlurmWorkers{2, "short", "1:00:00", 1, "1G", 2}),
+          protocol::encode(protocol::RemoveSlurmWorkers{"4711_1", true})};
 }
 
 std::vector<Parts> replies() {
@@ -122,7 +124,8 @@ std::vector<Parts> replies() {
           protocol::encode(protocol::Accepted{kId, "fuzz"}),
           protocol::encode(protocol::StatusReply{{job}}),
           protocol::encode(protocol::FetchReply{kId, "HDF5 but not really"}),
-          protocol::encode(protocol::WorkersReply{{worker}, {}, 0}),
+          protocol::encode(protocol::WorkersReply{{worker}, {{"4711_0", "RUNNING", "w", false, false, 1.0, "None"}}, 1}),
+          protocol::encode(protocol::SlurmAccepted{"4711", {"4711_0"}, "fuzz"}),
           protocol::encode(protocol::ErrorReply{"fuzz"})};
 }
 
