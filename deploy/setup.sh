@@ -18,6 +18,7 @@ PACKAGES=(
   iproute2               # ip netns + veth: the CURVE test on a non-loopback address (tests/integration/)
   slurm-wlm munge        # Slurm workers (deploy/slurm/): the test starts slurmctld + slurmd + munged on localhost
   systemd                # systemd-analyze verify of deploy/systemd/'s units (tests/deploy/)
+  python3-matplotlib python3-h5py  # the speed-against-error report's plots (bench/report/), run with /usr/bin/python3
 )
 
 missing=()

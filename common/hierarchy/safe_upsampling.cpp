@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <map>
+#include <optional>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -161,6 +163,23 @@ double max_stretch_of(const Faces& F, const Positions& rest, const std::vector<d
   for (std::size_t k = 0; k < rows.size(); ++k) limited.row(static_cast<Eigen::Index>(k)) = F.row(rows[k]);
   const StrainLimitTerm term(limited, rest, StrainLimitSettings::from(1.1, 1.0, 1.0));
   return term.max_stretch(stacked(x));
+}
+
+// The first limit that x's stretch reaches or exceeds on a face it limits, as (sigma_max, limit) of
+// that group of faces; nullopt when every limited face is below its limit (the strain-limit energy of
+// the level's solve is finite only then).
+std::optional<std::pair<double, double>> strain_limit_violation(const Faces& F, const Positions& rest,
+                                                                const std::vector<double>& limit, const Positions& x) {
+  std::map<double, std::vector<int>> by_limit;
+  for (int f = 0; f < F.rows(); ++f)
+    if (limit[static_cast<std::size_t>(f)] > 0.0) by_limit[limit[static_cast<std::size_t>(f)]].push_back(f);
+  for (const auto& [s, rows] : by_limit) {
+    std::vector<double> only(limit.size(), 0.0);  // this group's faces alone
+    for (int f : rows) only[static_cast<std::size_t>(f)] = s;
+    const double sigma = max_stretch_of(F, rest, only, x);
+    if (sigma >= s) return std::make_pair(sigma, s);
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -442,6 +461,17 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     }
     report.strain_seconds = since(strain_start);
     report.max_stretch_after = max_stretch_of(m.prims.faces, m.rest, limit, xc);
+    // A start state at or beyond a strain limit has infinite strain-limit energy: the level's first
+    // Newton step would be NaN (seen: "broad phase: non-finite position" on the flag's vertical
+    // starts). Refused here, by name, instead.
+    if (const auto v = strain_limit_violation(m.prims.faces, m.rest, limit, xc)) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "safe upsampling: the strain relaxation left a stretch of %.4f on faces limited to %.4f "
+                    "(%d passes); the level cannot start from it",
+                    v->first, v->second, report.strain_passes);
+      throw UpsamplingFailed(text);
+    }
   }
   scatter_rows(xc, m.global, x);
   if (level.contact) {

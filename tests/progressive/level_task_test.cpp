@@ -11,6 +11,8 @@
 
 #include "geometry/shapes.h"
 #include "progressive/test_scenes.h"
+#include "scene/scene_file.h"
+#include "support/test_paths.h"
 #include "support/intersection_checker.h"
 
 namespace pd {
@@ -201,6 +203,27 @@ TEST(LevelTask, BadTasksAreRefusedWithTheTaskInTheMessage) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("frame 3 of level 0"), std::string::npos) << e.what();
   }
+}
+
+// The flag (scenes/flag.json: 5 % strain limit, pins, wind): safe upsampling of level 0's frame 10
+// leaves faces at 1.058 > 1.05, where the strain-limit energy is infinite. The vertical start is
+// refused by name (it used to reach the first Newton step and fail as "broad phase: non-finite
+// position"). If the relaxation learns to reach the limit, this test must change: the start then
+// succeeds.
+TEST(LevelTask, AVerticalStartThatUpsamplesBeyondTheStrainLimitIsRefusedByName) {
+  Scene scene = load_scene(test::source_dir() + "/scenes/flag.json");
+  scene.frames = 12;
+  const SceneHierarchy h = build_scene_hierarchy(scene);
+  Frames preview, subset;
+  run(scene, h, {0, 0, 12}, nullptr, preview);
+  try {
+    run(scene, h, {1, 10, 12}, &preview, subset);
+    ADD_FAILURE() << "the vertical start at frame 10 was not refused";
+  } catch (const UpsamplingFailed& e) {
+    EXPECT_NE(std::string(e.what()).find("the strain relaxation left a stretch of 1.05"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("on faces limited to 1.0500"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(subset.empty());
 }
 
 }  // namespace

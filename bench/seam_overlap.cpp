@@ -1,0 +1,153 @@
+// pd_bench_seam_overlap: does starting a time subset a few frames early, and discarding the overlap,
+// reduce the jitter at its seam? (issue "speed against error": the seam jitter of K time subsets.)
+//
+// For one scene, the single run (K = 1) of every level, then the finest level's subset (a, N] solved
+// again as a farm task would: started vertically at a - m (safe upsampling of level L-1's frame
+// a - m) for each overlap m, its frames (a - m, a] discarded, frames a + 1.. kept. The level below
+// is the single run's, so only the finest level's seam is measured. Seam jitter (docs/progressive.md,
+// "Error measures"):
+//   acc(t) = x(t+1) - 2 x(t) + x(t-1) per vertex (m per frame^2),
+//   d(t)   = max over vertices |acc_K(t) - acc_1(t)|,
+//   ratio  = max(d(a), d(a+1)) / median of d over every other frame 1..N-1.
+// Also the largest position difference from the single run after the seam, and each task's time.
+//
+//   pd_bench_seam_overlap SCENE --frames N --seam A [--overlaps 0,2,4,8]
+// prints one line per overlap and a JSON object per overlap on the last lines.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "hierarchy/scene_hierarchy.h"
+#include "progressive/level_task.h"
+#include "scene/scene_file.h"
+
+namespace {
+
+using Frames = std::map<int, Eigen::VectorXd>;
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// Solves `task` with level `below`'s frames (null for level 0) and returns its frames.
+Frames solve(const pd::Scene& scene, const pd::SceneHierarchy& h, const pd::LevelTask& task, const Frames* below,
+             double& seconds) {
+  pd::LevelTaskInputs in;
+  if (below) in.below = [below](int t) { return below->at(t); };
+  Frames out;
+  const auto start = Clock::now();
+  pd::solve_level_task(scene, h, task, in, [&](const pd::FrameRecord& r) { out[r.frame] = r.x; });
+  seconds = seconds_since(start);
+  return out;
+}
+
+// max over vertices of |acc_a(t) - acc_b(t)|, m per frame^2.
+double jitter(const Frames& a, const Frames& b, int t) {
+  const Eigen::VectorXd acc = (a.at(t + 1) - 2.0 * a.at(t) + a.at(t - 1)) - (b.at(t + 1) - 2.0 * b.at(t) + b.at(t - 1));
+  double d = 0.0;
+  for (Eigen::Index v = 0; v < acc.size() / 3; ++v) d = std::max(d, acc.segment<3>(3 * v).norm());
+  return d;
+}
+
+double max_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  double d = 0.0;
+  for (Eigen::Index v = 0; v < a.size() / 3; ++v) d = std::max(d, (a.segment<3>(3 * v) - b.segment<3>(3 * v)).norm());
+  return d;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"pd_bench_seam_overlap: seam jitter of a vertical start with an overlap"};
+  std::string scene_path, overlaps_text = "0,2,4,8";
+  int frames = 0, seam = 0, level = -1;
+  app.add_option("scene", scene_path, "Scene file")->required();
+  app.add_option("--frames", frames, "Frames N")->required()->check(CLI::PositiveNumber);
+  app.add_option("--seam", seam, "Seam frame a (the subset (a, N] starts there)")->required()->check(CLI::PositiveNumber);
+  app.add_option("--overlaps", overlaps_text, "Overlaps m to try, frames");
+  app.add_option("--level", level, "The level whose subset is measured (default: the finest; >= 1)");
+  CLI11_PARSE(app, argc, argv);
+  std::vector<int> overlaps;
+  std::stringstream list(overlaps_text);
+  for (std::string item; std::getline(list, item, ',');) overlaps.push_back(std::stoi(item));
+  if (seam + 2 > frames) {
+    std::fprintf(stderr, "--seam: needs seam + 2 <= frames\n");
+    return 2;
+  }
+
+  pd::Scene scene = pd::load_scene(scene_path);
+  scene.frames = frames;
+  const pd::SceneHierarchy h = pd::build_scene_hierarchy(scene);
+  const int L = level >= 1 ? std::min(level, h.num_levels() - 1) : h.num_levels() - 1;
+  std::vector<Frames> single(static_cast<std::size_t>(L + 1));
+  double total = 0.0;
+  for (int l = 0; l <= L; ++l) {
+    double s = 0.0;
+    single[static_cast<std::size_t>(l)] =
+        solve(scene, h, {l, 0, frames}, l > 0 ? &single[static_cast<std::size_t>(l - 1)] : nullptr, s);
+    total += s;
+    std::printf("single run: level %d (0, %d] in %.2f s\n", l, frames, s);
+  }
+  const Frames& ref = single[static_cast<std::size_t>(L)];
+  const Frames& below = single[static_cast<std::size_t>(L - 1)];
+  std::vector<nlohmann::json> results;
+  for (const int m : overlaps) {
+    nlohmann::json r = {{"scene", scene_path}, {"frames", frames}, {"seam", seam}, {"overlap", m}, {"level", L}};
+    const int start = seam - m;
+    if (start < 1) {
+      r["error"] = "the overlap reaches frame 0";
+      results.push_back(r);
+      continue;
+    }
+    double s = 0.0;
+    Frames subset;
+    try {
+      subset = solve(scene, h, {L, start, frames}, &below, s);
+    } catch (const std::exception& e) {
+      r["error"] = e.what();
+      std::printf("overlap %d: failed: %s\n", m, e.what());
+      results.push_back(r);
+      continue;
+    }
+    // The K = 2 run: the first subset's frames (the single run's, up to a), then this subset's.
+    Frames run;
+    for (const auto& [t, x] : ref)
+      if (t <= seam) run[t] = x;
+    for (const auto& [t, x] : subset)
+      if (t > seam) run[t] = x;
+    std::vector<double> other;
+    double at_seam = 0.0;
+    for (int t = 1; t < frames; ++t) {
+      const double d = jitter(run, ref, t);
+      if (t == seam || t == seam + 1) at_seam = std::max(at_seam, d);
+      else other.push_back(d);
+    }
+    double after = 0.0;
+    for (int t = seam + 1; t <= frames; ++t) after = std::max(after, max_distance(run.at(t), ref.at(t)));
+    const double med = median(other);
+    r["seconds"] = s;
+    r["seam_d_m"] = at_seam;
+    r["median_other_d_m"] = med;
+    r["ratio"] = med > 0.0 ? nlohmann::json(at_seam / med) : nlohmann::json(nullptr);
+    r["max_distance_after_seam_m"] = after;
+    std::printf("overlap %d: seam d %.3e m, median other %.3e m, ratio %s, max distance after the seam %.3e m, "
+                "%.2f s (%d extra steps)\n",
+                m, at_seam, med, med > 0.0 ? std::to_string(at_seam / med).c_str() : "n/a", after, s, m);
+    results.push_back(r);
+  }
+  std::printf("single run total %.2f s\n", total);
+  for (const nlohmann::json& r : results) std::printf("%s\n", r.dump().c_str());
+  return 0;
+}
