@@ -45,6 +45,8 @@ struct CompareArgs {
   std::string file;   // the reference is this file's finest level that holds frames
   std::string other;  // optional second file (e.g. a direct run of the same scene)
   std::string csv;    // CSV output; empty: FILE.compare.csv
+  bool json = false;  // print one JSON object on stdout (docs/progressive.md, "Error measures") instead of text
+  std::string seams;  // "T1,T2,...": frames later time subsets start from; seam jitter of OTHER against FILE
 };
 int compare(const CompareArgs& args);
 

@@ -219,10 +219,13 @@ int main(int argc, char** argv) {
 
   pd::cli::CompareArgs cmp;
   auto* compare = app.add_subcommand(
-      "compare", "Centre-of-mass consistency between the levels of one or two frame files (prints, writes CSV)");
+      "compare", "Error measures between the levels of one or two frame files (prints or --json, writes CSV)");
   compare->add_option("file", cmp.file, "Frame file; its finest level with frames is the reference")->required();
   compare->add_option("other", cmp.other, "A second frame file of the same scene (e.g. a direct run)");
   compare->add_option("--csv", cmp.csv, "CSV file to write (default FILE.compare.csv)");
+  compare->add_flag("--json", cmp.json, "Print one JSON object on stdout instead of the table");
+  compare->add_option("--seams", cmp.seams,
+                      "T1,T2,...: frames where later time subsets of OTHER start (FILE: the K = 1 run); adds seam jitter");
 
   pd::cli::KeysArgs keys_args;
   auto* keys = app.add_subcommand(

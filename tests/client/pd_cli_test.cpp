@@ -5,12 +5,15 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "geometry/obj_io.h"
 #include "store/frame_store.h"
@@ -364,6 +367,98 @@ TEST(PdCli, HierarchyBadInputExitsWithCode2) {
   const CliResult bad_flag = run_pd("export " + dir + "/h.h5 --prolongate --out " + dir + "/x");
   EXPECT_EQ(bad_flag.exit_code, 2) << bad_flag.output;
   EXPECT_NE(bad_flag.output.find("--prolongate"), std::string::npos) << bad_flag.output;
+}
+
+
+// ---- pd compare --json (error measures, docs/progressive.md "Error measures") ------------------------
+
+// The one line of `output` that is the JSON object (stderr's "wrote ..." line is mixed in by run_pd).
+nlohmann::json json_line(const std::string& output) {
+  std::size_t at = 0;
+  while (at < output.size()) {
+    const std::size_t end = std::min(output.find('\n', at), output.size());
+    if (output[at] == '{') return nlohmann::json::parse(output.substr(at, end - at), nullptr, false);
+    at = end + 1;
+  }
+  return nullptr;
+}
+
+TEST(PdCli, CompareJsonGivesEveryMeasurePerLevelAndFrameAndRejectsBadSeams) {
+  // slope-friction: two sheets (simulated) on two slopes (obstacles), 3 levels, frames 0..3.
+  const std::string dir = test::scratch_dir("cli_compare_json");
+  const std::string scene = test::source_dir() + "/scenes/slope-friction.json";
+  const std::string run = "simulate " + scene + " --frames 3 --quiet ";
+  ASSERT_EQ(run_pd(run + "--mode progressive --out " + dir + "/p.h5").exit_code, 0);
+  ASSERT_EQ(run_pd(run + "--mode direct --level 0 --out " + dir + "/d.h5").exit_code, 0);  // prolonged by its own file
+  const CliResult r = run_pd("compare " + dir + "/p.h5 " + dir + "/d.h5 --json --seams 1 --csv " + dir + "/c.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j = json_line(r.output);
+  ASSERT_TRUE(j.is_object()) << r.output;
+  EXPECT_EQ(j["reference"]["file"], dir + "/p.h5");
+  EXPECT_EQ(j["reference"]["level"], 2);
+  const int finest = FrameReader(dir + "/p.h5").num_vertices(2);
+  EXPECT_EQ(j["reference"]["vertices"], finest);
+  ASSERT_EQ(j["levels"].size(), 4u);  // p.h5 levels 0, 1, 2 and d.h5 level 0
+  const std::vector<std::string> per_frame_keys = {"frame", "com_deviation_m", "vertex_distance_mean_m",
+      "vertex_distance_p95_m", "vertex_distance_max_m", "hausdorff_m", "kinetic_energy_J"};
+  for (const nlohmann::json& l : j["levels"]) {
+    const std::string where = l.value("file", "?") + " level " + std::to_string(l.value("level", -1));
+    for (const char* key : {"file", "level", "vertices", "frames", "time_step_s", "com_deviation_m",
+                            "vertex_distance_m", "hausdorff_m", "kinetic_energy_J", "per_frame"})
+      EXPECT_TRUE(l.contains(key)) << key << " missing in " << where;
+    EXPECT_EQ(l["frames"], 4) << where;
+    EXPECT_EQ(l["time_step_s"], 0.01) << where;
+    for (const char* key : {"mean", "max", "max_frame"}) {
+      EXPECT_TRUE(l["com_deviation_m"][key].is_number()) << key << " " << where;
+      EXPECT_TRUE(l["hausdorff_m"][key].is_number()) << key << " " << where;
+    }
+    for (const char* key : {"first", "max", "last"}) EXPECT_TRUE(l["kinetic_energy_J"][key].is_number()) << where;
+    // Every level here reaches the finest mesh (itself, or prolonged with its file's hierarchy).
+    ASSERT_TRUE(l["vertex_distance_m"].is_object()) << where << ": " << l.value("vertex_distance_note", "");
+    for (const std::string& key : per_frame_keys) {
+      ASSERT_TRUE(l["per_frame"].contains(key)) << key << " " << where;
+      EXPECT_EQ(l["per_frame"][key].size(), 4u) << key << " " << where;
+    }
+    for (const nlohmann::json& h : l["per_frame"]["hausdorff_m"]) {
+      ASSERT_TRUE(h.is_number()) << where;
+      EXPECT_TRUE(std::isfinite(h.get<double>()) && h.get<double>() >= 0.0) << where;
+      EXPECT_LT(h.get<double>(), 0.01) << where << ": 3 frames move the sheets far less than 1 cm";
+    }
+  }
+  // The reference against itself: every vertex at distance 0 in every frame.
+  const nlohmann::json& self = j["levels"][2];
+  ASSERT_EQ(self["level"], 2);
+  EXPECT_EQ(self["vertex_distance_m"]["max"], 0.0);
+  EXPECT_EQ(self["vertex_distance_m"]["mean"], 0.0);
+  for (const nlohmann::json& v : self["per_frame"]["vertex_distance_max_m"]) EXPECT_EQ(v, 0.0);
+  EXPECT_EQ(self["com_deviation_m"]["max"], 0.0);
+  // Seam jitter of d.h5's level 0 against p.h5's level 0 (same mesh): seams 1 and 2.
+  ASSERT_TRUE(j["seam_jitter"].is_array()) << j.dump();
+  ASSERT_EQ(j["seam_jitter"].size(), 1u) << j.dump();
+  EXPECT_EQ(j["seam_jitter"][0]["level"], 0);
+  EXPECT_EQ(j["seam_jitter"][0]["seams"], nlohmann::json::array({1, 2}));
+  for (const char* key : {"seam_d_m", "median_other_d_m", "ratio"})
+    EXPECT_TRUE(j["seam_jitter"][0].contains(key)) << key;
+  std::ifstream csv(dir + "/c.csv");
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_NE(header.find(",vertex_distance_mean_m,vertex_distance_p95_m,vertex_distance_max_m,hausdorff_m"),
+            std::string::npos) << header;
+
+  // Bad input: exit 2 with "pd: error: <file>: ...".
+  const std::string p = dir + "/p.h5", d = dir + "/d.h5";
+  for (const auto& [args, file] : std::vector<std::pair<std::string, std::string>>{
+           {p + " --seams 1", p}, {p + " " + d + " --seams 1,x", d}, {p + " " + d + " --seams 3", d},
+           {p + " " + d + " --seams 0", d}}) {
+    const CliResult bad = run_pd("compare " + args + " --csv " + dir + "/bad.csv");
+    EXPECT_EQ(bad.exit_code, 2) << args << ": " << bad.output;
+    EXPECT_NE(bad.output.find("pd: error: " + file + ": "), std::string::npos) << args << ": " << bad.output;
+  }
+  const std::string one_scene = write_file(dir, "s.json", small_scene());  // one object against four
+  ASSERT_EQ(run_pd("simulate " + one_scene + " --quiet --out " + dir + "/one.h5").exit_code, 0);
+  const CliResult objects = run_pd("compare " + p + " " + dir + "/one.h5 --json --csv " + dir + "/bad.csv");
+  EXPECT_EQ(objects.exit_code, 2) << objects.output;
+  EXPECT_NE(objects.output.find("pd: error: " + dir + "/one.h5"), std::string::npos) << objects.output;
 }
 
 }  // namespace
