@@ -34,6 +34,14 @@ SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
 echo "setup: installing ${missing[*]}"
+# Daemons packaged with a service (slurmctld, slurmd, munge) must not start during the install: the
+# tests start their own, with their own configuration. policy-rc.d exit 101 = "action forbidden";
+# one already present (as in many container images) is left as it is.
+policy=/usr/sbin/policy-rc.d
+if [ ! -e "$policy" ]; then
+  printf '#!/bin/sh\nexit 101\n' | $SUDO tee "$policy" >/dev/null && $SUDO chmod 755 "$policy"
+  trap '$SUDO rm -f "$policy"' EXIT  # also when the install fails
+fi
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 echo "setup: done"
