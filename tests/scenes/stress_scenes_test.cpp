@@ -11,8 +11,8 @@
 //     potential (no wind, moving obstacle or scripted pin, whose work no stat records);
 //   - Newton: unconverged steps are read from stats/newton_converged, printed, and bounded.
 // A scene beyond the solver (StressBeyondTheSolver) must end in time with its failures counted.
-// The same analysis prints the rows of docs/stress.md for full-size frame files (StressTable below,
-// run by bench/stress_table.sh).
+// The same analysis prints the rows of docs/stress.md for full-size frame files
+// (print_stress_table below: the program pd_stress_table, run by bench/stress_table.sh).
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -486,11 +486,9 @@ void print_series(const FrameReader& reader, const FileCheck& f) {
 // bench/stress_table.sh runs it: one row per file (scene and mode), every level of a progressive
 // file summed (frames, intersecting frames, Newton iterations, unconverged steps, cost) or maximised
 // (energy excess, naming the level). Cost: solve seconds of all levels per step of the shot.
-// A tool, not a check: DISABLED_ so that the suite never runs (nor skips) it; bench/stress_table.sh
-// and the commands in docs/stress.md run it with --gtest_also_run_disabled_tests.
-TEST(StressTable, DISABLED_RowsForFrameFiles) {
-  const char* list = std::getenv("PD_STRESS_TABLE_FILES");
-  if (!list || !*list) GTEST_SKIP() << "PD_STRESS_TABLE_FILES not set (bench/stress_table.sh sets it)";
+// A tool, not a check: the program pd_stress_table (this file built with PD_STRESS_TABLE_MAIN,
+// tests/CMakeLists.txt) runs it; the test suite does not.
+[[maybe_unused]] void print_stress_table(const char* list) {
   std::stringstream files(list);
   std::string path;
   std::printf("TABLE | scene | mode | levels | frames | intersecting (below ground) | worst energy excess J (relative, "
@@ -540,3 +538,16 @@ TEST(StressTable, DISABLED_RowsForFrameFiles) {
 
 }  // namespace
 }  // namespace pd
+
+#ifdef PD_STRESS_TABLE_MAIN
+// pd_stress_table: the rows for the frame files in $PD_STRESS_TABLE_FILES (bench/stress_table.sh).
+int main() {
+  const char* list = std::getenv("PD_STRESS_TABLE_FILES");
+  if (!list || !*list) {
+    std::fprintf(stderr, "pd_stress_table: error: PD_STRESS_TABLE_FILES: set it to frame files, ':'-separated\n");
+    return 2;
+  }
+  pd::print_stress_table(list);
+  return 0;
+}
+#endif
