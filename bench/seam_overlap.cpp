@@ -4,18 +4,17 @@
 // For one scene, the single run (K = 1) of every level, then the finest level's subset (a, N] solved
 // again as a farm task would: started vertically at a - m (safe upsampling of level L-1's frame
 // a - m) for each overlap m, its frames (a - m, a] discarded, frames a + 1.. kept. The level below
-// is the single run's, so only the finest level's seam is measured. Seam jitter (docs/progressive.md,
-// "Error measures"):
-//   acc(t) = x(t+1) - 2 x(t) + x(t-1) per vertex (m per frame^2),
-//   d(t)   = max over vertices |acc_K(t) - acc_1(t)|,
-//   ratio  = max(d(a), d(a+1)) / median of d over the frames a+2..N-1 (before the seam the run is
-//            the single run's own, d = 0: progressive/error_measures.h seam_jitter).
+// is the single run's, so only the finest level's seam is measured. Seam jitter as pd compare
+// --seams gives it (progressive/error_measures.h: d(t) = max over vertices of the acceleration
+// difference to the single run, m per frame^2; ratio = max(d(a), d(a+1)) / median of d after them).
 // Also the largest position difference from the single run after the seam, and each task's time.
 //
 //   pd_bench_seam_overlap SCENE --frames N --seam A [--overlaps 0,2,4,8]
 // prints one line per overlap and a JSON object per overlap on the last lines.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <cstdio>
 #include <map>
 #include <sstream>
@@ -26,6 +25,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hierarchy/scene_hierarchy.h"
+#include "progressive/error_measures.h"
 #include "progressive/level_task.h"
 #include "scene/scene_file.h"
 
@@ -48,24 +48,10 @@ Frames solve(const pd::Scene& scene, const pd::SceneHierarchy& h, const pd::Leve
   return out;
 }
 
-// max over vertices of |acc_a(t) - acc_b(t)|, m per frame^2.
-double jitter(const Frames& a, const Frames& b, int t) {
-  const Eigen::VectorXd acc = (a.at(t + 1) - 2.0 * a.at(t) + a.at(t - 1)) - (b.at(t + 1) - 2.0 * b.at(t) + b.at(t - 1));
-  double d = 0.0;
-  for (Eigen::Index v = 0; v < acc.size() / 3; ++v) d = std::max(d, acc.segment<3>(3 * v).norm());
-  return d;
-}
-
 double max_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   double d = 0.0;
   for (Eigen::Index v = 0; v < a.size() / 3; ++v) d = std::max(d, (a.segment<3>(3 * v) - b.segment<3>(3 * v)).norm());
   return d;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
 }
 
 }  // namespace
@@ -128,24 +114,25 @@ int main(int argc, char** argv) {
       if (t <= seam) run[t] = x;
     for (const auto& [t, x] : subset)
       if (t > seam) run[t] = x;
-    std::vector<double> other;
-    double at_seam = 0.0;
-    for (int t = 1; t < frames; ++t) {
-      const double d = jitter(run, ref, t);
-      if (t == seam || t == seam + 1) at_seam = std::max(at_seam, d);
-      else if (t > seam + 1) other.push_back(d);
-    }
+    // d(t) and the seam jitter as pd compare --seams computes them (progressive/error_measures.h).
+    const std::vector<char> every(static_cast<std::size_t>(ref.at(0).size() / 3), 1);
+    std::vector<double> d(static_cast<std::size_t>(frames + 1), std::numeric_limits<double>::quiet_NaN());
+    for (int t = 1; t < frames; ++t)
+      d[static_cast<std::size_t>(t)] = pd::acceleration_difference(
+          pd::as_rows(run.at(t - 1)), pd::as_rows(run.at(t)), pd::as_rows(run.at(t + 1)), pd::as_rows(ref.at(t - 1)),
+          pd::as_rows(ref.at(t)), pd::as_rows(ref.at(t + 1)), every);
+    const pd::SeamJitter j = pd::seam_jitter(d, {seam});
+    const double at_seam = j.max_seam_d, med = j.median_other;
     double after = 0.0;
     for (int t = seam + 1; t <= frames; ++t) after = std::max(after, max_distance(run.at(t), ref.at(t)));
-    const double med = median(other);
     r["seconds"] = s;
     r["seam_d_m"] = at_seam;
     r["median_other_d_m"] = med;
-    r["ratio"] = med > 0.0 ? nlohmann::json(at_seam / med) : nlohmann::json(nullptr);
+    r["ratio"] = std::isfinite(j.ratio) ? nlohmann::json(j.ratio) : nlohmann::json(nullptr);
     r["max_distance_after_seam_m"] = after;
     std::printf("overlap %d: seam d %.3e m, median other %.3e m, ratio %s, max distance after the seam %.3e m, "
                 "%.2f s (%d extra steps)\n",
-                m, at_seam, med, med > 0.0 ? std::to_string(at_seam / med).c_str() : "n/a", after, s, m);
+                m, at_seam, med, std::isfinite(j.ratio) ? std::to_string(j.ratio).c_str() : "n/a", after, s, m);
     results.push_back(r);
   }
   std::printf("single run total %.2f s\n", total);

@@ -18,17 +18,15 @@ namespace pd::scheduler {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
 std::string joined(const std::vector<std::string>& ids) {
   std::string s;
   for (const std::string& id : ids) s += (s.empty() ? "" : " ") + id;
   return s;
 }
 
-std::string seconds_since(Clock::time_point start) {
+std::string seconds_text(double seconds) {
   char text[32];
-  std::snprintf(text, sizeof text, "%.3f s", std::chrono::duration<double>(Clock::now() - start).count());
+  std::snprintf(text, sizeof text, "%.3f s", seconds);
   return text;
 }
 
@@ -97,20 +95,22 @@ std::string SlurmPool::submit(const protocol::AddSlurmWorkers& m, bool replaceme
     call.worker_command.insert(call.worker_command.end(),
                                {"--server-key", options_.server_key_file, "--key", options_.worker_key_file});
   const std::vector<std::string> argv = farm::sbatch_argv(call);
-  const auto start = Clock::now();
-  const CommandResult r = run_command(argv, kSlurmCommandTimeout);
-  if (!r.failure.empty()) {
-    event_("slurm_error", r.failure + " (" + seconds_since(start) + ")");
-    throw InputError(r.failure);
-  }
+  const CommandResult r = slurm_command(argv);
+  if (!r.failure.empty()) throw InputError(r.failure);
   const std::string job = farm::parse_sbatch_job_id(r.out);
   const std::vector<std::string> tasks = farm::array_task_ids(job, m.count);
   store_.add_submitted(job, tasks, replacement, now);
   event_("slurm_submitted", "job array " + job + ": " + std::to_string(m.count) + " worker(s)" +
                                 (replacement ? " (replacement for the keep target)" : "") + ", sbatch took " +
-                                seconds_since(start));
+                                seconds_text(r.seconds));
   poll_soon();
   return job;
+}
+
+CommandResult SlurmPool::slurm_command(const std::vector<std::string>& argv) {
+  CommandResult r = run_command(argv, kSlurmCommandTimeout);
+  if (!r.failure.empty()) event_("slurm_error", r.failure + " (" + seconds_text(r.seconds) + ")");
+  return r;
 }
 
 protocol::SlurmAccepted SlurmPool::add(const protocol::AddSlurmWorkers& m, double now) {
@@ -167,10 +167,9 @@ void SlurmPool::scancel(const std::vector<std::string>& ids, const std::string& 
   if (ids.empty()) return;
   std::vector<std::string> argv = {"scancel"};
   argv.insert(argv.end(), ids.begin(), ids.end());
-  const auto start = Clock::now();
-  const CommandResult r = run_command(argv, kSlurmCommandTimeout);
-  if (!r.failure.empty()) event_("slurm_error", r.failure + " (" + seconds_since(start) + ")");
-  else event_("slurm_cancelled", joined(ids) + ": " + why + " (scancel took " + seconds_since(start) + ")");
+  const CommandResult r = slurm_command(argv);
+  if (r.failure.empty())
+    event_("slurm_cancelled", joined(ids) + ": " + why + " (scancel took " + seconds_text(r.seconds) + ")");
   poll_soon();
 }
 
@@ -217,12 +216,8 @@ void SlurmPool::tick(double now, const std::function<bool()>& work_remains, cons
 // squeue lists this farm's jobs (by job name) in every state Slurm still remembers; an active row
 // it no longer lists has ended without our seeing how (it left Slurm's memory): GONE.
 void SlurmPool::poll(double now) {
-  const auto start = Clock::now();
-  const CommandResult r = run_command(farm::squeue_argv(options_.job_name), kSlurmCommandTimeout);
-  if (!r.failure.empty()) {
-    event_("slurm_error", r.failure + " (" + seconds_since(start) + ")");
-    return;  // states stay as they were; the next poll tries again
-  }
+  const CommandResult r = slurm_command(farm::squeue_argv(options_.job_name));
+  if (!r.failure.empty()) return;  // states stay as they were; the next poll tries again
   std::set<std::string> listed;
   for (const farm::SlurmJobState& j : farm::parse_squeue(r.out)) {
     listed.insert(j.id);

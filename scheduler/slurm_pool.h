@@ -17,6 +17,7 @@
 
 #include "protocol/protocol.h"
 #include "store/slurm_store.h"
+#include "util/subprocess.h"
 
 namespace pd::scheduler {
 
@@ -87,6 +88,9 @@ class SlurmPool {
 
  private:
   std::string submit(const protocol::AddSlurmWorkers& m, bool replacement, double now);
+  // Runs one Slurm command (bounded by kSlurmCommandTimeout); a failure (result.failure non-empty)
+  // is logged as slurm_error with its duration.
+  CommandResult slurm_command(const std::vector<std::string>& argv);
   void scancel(const std::vector<std::string>& ids, const std::string& why);
   void poll(double now);
   void keep_target(double now, bool work_remains);

@@ -96,7 +96,8 @@ CommandResult run_command(const std::vector<std::string>& argv, std::chrono::mil
     r.failure = name + ": cannot run: " + std::strerror(rc);
     return r;
   }
-  const auto deadline = Clock::now() + timeout;
+  const auto started = Clock::now();
+  const auto deadline = started + timeout;
   const bool finished = drain(out_pipe[0], err_pipe[0], r.out, r.err, deadline);
   close(out_pipe[0]);
   close(err_pipe[0]);
@@ -114,11 +115,13 @@ CommandResult run_command(const std::vector<std::string>& argv, std::chrono::mil
     while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
     r.timed_out = true;
+    r.seconds = std::chrono::duration<double>(Clock::now() - started).count();
     char seconds[32];
     std::snprintf(seconds, sizeof seconds, "%.1f", static_cast<double>(timeout.count()) / 1000.0);
     r.failure = name + ": timed out after " + seconds + " s";
     return r;
   }
+  r.seconds = std::chrono::duration<double>(Clock::now() - started).count();
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   if (r.exit_code != 0) {
     const std::string said = first_line(r.err.empty() ? r.out : r.err);

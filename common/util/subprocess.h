@@ -13,6 +13,7 @@ struct CommandResult {
   int exit_code = -1;      // 0..255, 128 + signal when a signal ended it, -1 when it never ran
   bool timed_out = false;  // killed after the timeout
   std::string out, err;    // stdout and stderr, each cut at kMaxCommandOutput bytes
+  double seconds = 0.0;    // wall time from the spawn to the end (or the kill)
   // "" when it ran and exited 0, else one line for a message: "sbatch: exit 1: <first stderr line>",
   // "sbatch: timed out after 10 s", "sbatch: cannot run: No such file or directory".
   std::string failure;

@@ -257,7 +257,6 @@ TEST_F(SlurmTest, ScancelOfABusySlurmWorkerReleasesItsTaskAKeptReplacementJoinsA
       RecordProperty("scancel_to_reassigned_seconds", std::to_string(seconds));
       break;
     }
-  EXPECT_TRUE(test::log_events(farm.scheduler_log(), "worker_lost").size() >= 1);
   bool goodbye = false;
   for (const json& e : test::log_events(farm.scheduler_log(), "worker_lost"))
     goodbye = goodbye || e.value("message", std::string()).find(name + ": said goodbye") == 0;

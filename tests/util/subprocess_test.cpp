@@ -30,6 +30,8 @@ TEST(Subprocess, ACommandPastItsTimeoutIsKilledWithItsChildren) {
   EXPECT_EQ(r.exit_code, -1);
   EXPECT_EQ(r.failure, "sh: timed out after 0.3 s");
   EXPECT_LT(seconds, 5.0);
+  EXPECT_GE(r.seconds, 0.3);
+  EXPECT_LE(r.seconds, seconds);
 }
 
 TEST(Subprocess, AMissingProgramIsAFailureNotACrash) {
