@@ -42,9 +42,9 @@
 // examined. A solver that tries such a state in a line search can catch it and reject the step, as
 // the membrane energy's +infinity does for the same collapse.
 //
-// Gradients in the solver hold the offsets fixed (DESIGN.md): grad = U^T g_fine (restrict_gradient),
-// and velocities prolong with U alone. jacobian() gives the exact derivative of the full nonlinear P
-// for tests and for measuring what freezing drops.
+// The progressive solver's gradients use jacobian(), the exact derivative of the full nonlinear P
+// (progressive/prolonged_term.h says why); restrict_gradient and apply_frozen serve PSQ's frozen
+// offsets (grad = U^T g_fine), kept selectable to measure what freezing drops.
 #include <stdexcept>
 #include <string>
 #include <vector>

@@ -109,8 +109,9 @@ FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v
   start.x = &x_start;
   start.v = &v_start;
   if (input.warm_start) x = *input.warm_start;
-  // A coarse level's prolonged elasticity takes its frozen offsets from Newton's current iterate
-  // (progressive/prolonged_term.h): first from the start, then after every accepted iterate.
+  // With frozen offsets (progressive/prolonged_term.h), a coarse level's prolonged elasticity takes
+  // them from Newton's current iterate: first from the start, then after every accepted iterate
+  // (a no-op with the exact gradient, the default).
   if (sys_.prolongation) sys_.prolongation->refresh(x);
   sys_.ip.begin_step(start);
   if (input.inertia_target) sys_.inertia->set_predicted_positions(*input.inertia_target);

@@ -70,7 +70,7 @@ SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarc
   const Eigen::VectorXd finest_initial = build_initial_positions(scene);
   const SceneLevel& lv = hierarchy.levels[static_cast<std::size_t>(level)];
   const SceneLevel& finest = hierarchy.levels.back();
-  sys.prolongation = std::make_shared<ProlongationState>(*lv.to_finest_prolongation, stacked(lv.rest.V));
+  sys.prolongation = std::make_shared<ProlongationState>(*lv.to_finest_prolongation, stacked(lv.rest.V), options.gradient);
   for (std::size_t o = 0; o < scene.objects.size(); ++o) {
     const SceneObject& obj = scene.objects[o];
     if (obj.obstacle) continue;

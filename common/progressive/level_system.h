@@ -6,7 +6,7 @@
 // Level l's own mesh carries the inertia (masses lumped on its rest shape), gravity, wind, pins,
 // obstacles, contact and strain limits (C_l: "the sum of remaining current level-l contact and
 // strain-limiting potentials"); the shell forces (membrane, bending and internal pressure) are the
-// finest level's, evaluated on the prolonged shape through P^l with frozen offsets
+// finest level's, evaluated on the prolonged shape P^l(x) with its exact gradient
 // (progressive/prolonged_term.h). At the finest level P^L is the identity and the system is the
 // plain one (build_scene_system).
 //
@@ -34,6 +34,8 @@ Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int le
 
 struct LevelSystemOptions {
   ProlongedHessian hessian = ProlongedHessian::Lagged;  // coarse levels only (see prolonged_term.h)
+  // Exact (the default) or PSQ's frozen offsets; library-only, for measuring the difference.
+  ProlongedGradient gradient = ProlongedGradient::Exact;
   // Direct simulation of the level (PD eq. 3): its own mesh's elasticity instead of the finest
   // level's through P^l, for comparison with the progressive run.
   bool direct = false;

@@ -1,5 +1,7 @@
 #include "progressive/prolonged_term.h"
 
+#include <cstring>
+#include <limits>
 #include <map>
 #include <stdexcept>
 #include <utility>
@@ -13,14 +15,16 @@ ProlongedHessian parse_prolonged_hessian(const std::string& name) {
   throw std::invalid_argument("unknown prolonged Hessian '" + name + "': use galerkin, lagged or coarse");
 }
 
-ProlongationState::ProlongationState(const ShellProlongation& prolongation, const Eigen::VectorXd& coarse_rest)
-    : P_(&prolongation) {
+ProlongationState::ProlongationState(const ShellProlongation& prolongation, const Eigen::VectorXd& coarse_rest,
+                                     ProlongedGradient gradient)
+    : P_(&prolongation), mode_(gradient) {
   if (coarse_rest.size() != 3 * static_cast<Eigen::Index>(prolongation.num_coarse()))
     throw std::invalid_argument("ProlongationState: the coarse rest positions need 3 entries per coarse vertex");
-  offsets_ = prolongation.offsets(as_rows(coarse_rest));
+  if (mode_ == ProlongedGradient::Frozen) offsets_ = prolongation.offsets(as_rows(coarse_rest));
 }
 
 bool ProlongationState::refresh(const Eigen::VectorXd& x) {
+  if (mode_ == ProlongedGradient::Exact) return false;
   try {
     offsets_ = P_->offsets(as_rows(x));
     return true;
@@ -29,8 +33,38 @@ bool ProlongationState::refresh(const Eigen::VectorXd& x) {
   }
 }
 
+namespace {
+// Exact equality of two states (the cache key): the terms of one iterate pass the same vector.
+bool same_state(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  return a.size() == b.size() && (a.size() == 0 || std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0);
+}
+}  // namespace
+
 Eigen::VectorXd ProlongationState::fine_positions(const Eigen::VectorXd& x) const {
-  return stacked(P_->apply_frozen(as_rows(x), offsets_));
+  if (mode_ == ProlongedGradient::Frozen) return stacked(P_->apply_frozen(as_rows(x), offsets_));
+  if (!cached_y_valid_ || !same_state(x, cached_x_)) {
+    cached_y_valid_ = false;  // stays false if apply() throws
+    cached_y_ = stacked(P_->apply(as_rows(x)));
+    cached_x_ = x;
+    cached_y_valid_ = true;
+  }
+  return cached_y_;
+}
+
+const Eigen::SparseMatrix<double>& ProlongationState::jacobian(const Eigen::VectorXd& x) const {
+  if (mode_ == ProlongedGradient::Frozen) return P_->U_stacked();
+  if (!jacobian_valid_ || !same_state(x, jacobian_x_)) {
+    jacobian_valid_ = false;
+    jacobian_ = P_->jacobian(as_rows(x));
+    jacobian_x_ = x;
+    jacobian_valid_ = true;
+  }
+  return jacobian_;
+}
+
+Eigen::VectorXd ProlongationState::restrict(const Eigen::VectorXd& x, const Eigen::VectorXd& g_fine) const {
+  if (mode_ == ProlongedGradient::Frozen) return P_->restrict_gradient(g_fine);
+  return jacobian(x).transpose() * g_fine;
 }
 
 ProlongedTerm::ProlongedTerm(std::unique_ptr<EnergyTerm> fine, std::shared_ptr<ProlongationState> state,
@@ -41,12 +75,18 @@ ProlongedTerm::ProlongedTerm(std::unique_ptr<EnergyTerm> fine, std::shared_ptr<P
     throw std::invalid_argument("ProlongedTerm: the Coarse Hessian needs a stand-in term on the level's mesh");
 }
 
-double ProlongedTerm::value(const Eigen::VectorXd& x) const { return fine_->value(state_->fine_positions(x)); }
+double ProlongedTerm::value(const Eigen::VectorXd& x) const {
+  try {
+    return fine_->value(state_->fine_positions(x));
+  } catch (const DegenerateProlongationTriangle&) {
+    return std::numeric_limits<double>::infinity();  // no prolonged shape: see the header
+  }
+}
 
 void ProlongedTerm::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
   Eigen::VectorXd g = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(state_->num_fine()));
   fine_->add_gradient(state_->fine_positions(x), g);
-  grad += state_->restrict(g);
+  grad += state_->restrict(x, g);
 }
 
 void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
@@ -63,8 +103,8 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
     assemblies_since_refresh_ = 0;
   }
   // A diagonal block as a one-vertex element, an off-diagonal block (i > j) as the (i, j) block of a
-  // two-vertex element whose other blocks are zero. The block list depends only on the meshes and U,
-  // so the stencil sequence repeats from one assembly to the next and the coarse pattern is analysed
+  // two-vertex element whose other blocks are zero. The block list depends only on the meshes and the
+  // prolongation's sparsity pattern (J's is fixed: every fine vertex's 3x9 block), so the stencil sequence repeats from one assembly to the next and the coarse pattern is analysed
   // once.
   for (const GalerkinBlock& b : blocks_) {
     if (b.i == b.j) {
@@ -78,15 +118,15 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
 }
 
 // The fine Hessian (each element block projected as asked), made full from its stored lower
-// triangle, carried through U, and cut into 3x3 vertex blocks of its lower block triangle.
+// triangle, carried through the prolongation's Jacobian (U when frozen), and cut into 3x3 vertex blocks of its lower block triangle.
 void ProlongedTerm::compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection) const {
   fine_hessian_.begin(3 * state_->num_fine());
   fine_->add_hessian(state_->fine_positions(x), projection, fine_hessian_);
   const HessianAssembly::SparseMatrix& lower = fine_hessian_.finish(nullptr);
   const Eigen::SparseMatrix<double> strict_lower = lower.triangularView<Eigen::StrictlyLower>();
   const Eigen::SparseMatrix<double> full = Eigen::SparseMatrix<double>(lower) + Eigen::SparseMatrix<double>(strict_lower.transpose());
-  const Eigen::SparseMatrix<double>& U = state_->U();
-  const Eigen::SparseMatrix<double> G = Eigen::SparseMatrix<double>(U.transpose()) * (full * U);
+  const Eigen::SparseMatrix<double>& J = state_->jacobian(x);
+  const Eigen::SparseMatrix<double> G = Eigen::SparseMatrix<double>(J.transpose()) * (full * J);
 
   blocks_.clear();
   const int nc = state_->num_coarse();
@@ -104,7 +144,7 @@ void ProlongedTerm::compute_galerkin_blocks(const Eigen::VectorXd& x, HessianPro
 }
 
 double ProlongedTerm::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const {
-  return fine_->max_step(state_->fine_positions(x), state_->U() * dx);
+  return fine_->max_step(state_->fine_positions(x), state_->jacobian(x) * dx);
 }
 
 void ProlongedTerm::begin_step(const StepStart& step) {
@@ -116,7 +156,8 @@ void ProlongedTerm::begin_step(const StepStart& step) {
     fine.x = &x_fine;
   }
   if (step.v) {
-    v_fine = state_->U() * *step.v;
+    // The prolonged shape's velocity at the start; without positions, U v (the rigid-free part).
+    v_fine = step.x ? Eigen::VectorXd(state_->jacobian(*step.x) * *step.v) : Eigen::VectorXd(state_->U() * *step.v);
     fine.v = &v_fine;
   }
   fine_->begin_step(fine);

@@ -3,22 +3,34 @@
 // section 4.3): a coarse level l is stepped on its own vertices x (stacked, 3 n_l), but its shell
 // elasticity is the finest level's, evaluated on the prolonged shape y = P^l(x) = U x + a(x).
 //
-// Frozen offsets (PSQ, PD 4.6). The nonlinear offsets a(x) are held fixed while derivatives are taken:
-// with A the offsets frozen at some state x_f,
-//   value(x)    = Psi(U x + A)                     (J)
-//   gradient    = U^T grad Psi(U x + A)            (N)
-//   Hessian     = U^T H_Psi(U x + A) U  (Galerkin, N/m), or a stand-in (below)
-// which are the exact derivatives of value() for the frozen A, so Newton's line search and a
-// finite-difference test see one consistent function. The offsets are refreshed at the start of each
-// step and after every accepted Newton iterate (ProlongationState::refresh, called through the
-// solver's after_iteration hook), so at convergence x satisfies U^T grad Psi(P(x)) = 0 with the offsets
-// of x itself: the PSQ fixed point.
+// Exact gradient (the default). The offsets a(x) follow x everywhere, and the derivatives are those
+// of Psi(P(x)):
+//   value(x)    = Psi(P(x))                        (J)
+//   gradient    = J(x)^T grad Psi(P(x)),  J = dP/dx = U + da/dx (ShellProlongation::jacobian)   (N)
+//   Hessian     = J(x)^T H_Psi(P(x)) J(x)  (Galerkin, Gauss-Newton: the term grad Psi . d2a/dx2 is
+//                 dropped, so the Hessian is positive semi-definite when the fine blocks are), or a
+//                 stand-in (below).
+// Why not PSQ's frozen offsets. PSQ and PD (4.6) hold the offsets fixed while taking derivatives
+// (value Psi(U x + A), gradient U^T grad Psi, A refreshed after every accepted iterate): cheaper, and
+// its fixed point U^T grad Psi(P(x)) = 0 is right for quasistatics. In dynamics the dropped
+// (da/dx)^T grad Psi is not a small correction: U's rows sum to 1, so the restricted forces
+// F = -U^T grad Psi have the net torque -sum_i A_i x f_i (f_i the fine forces), zero only where the
+// offsets A_i are parallel to the fine forces. A pressurised ball at rest under a 10x coarser level
+// (fine forces balancing the gas, offsets of centimetres) spun itself up from nothing to 45 rad/s
+// and gained 3.4 J of kinetic energy; a sheet folded on a sharp edge gained 0.64 J in one step
+// (docs/stress.md, findings 1 and 2). Psi(P(x)) is invariant under rigid motions of x (the offsets
+// turn with the coarse triangles), so its exact gradient has zero net force and torque, and the
+// level is an ordinary conservative system again. Frozen stays selectable (ProlongedGradient) to
+// measure that difference.
+// A trial state whose deformed coarse face that carries fine vertices has (numerically) zero area has
+// no prolongation: value() is then +infinity, so Newton's line search rejects it as it rejects an
+// inverted membrane triangle.
 //
 // Hessian choice (issue 5 asks for both; measured with bench/progressive_scenes.cpp, see
 // docs/progressive.md):
-//   Galerkin  U^T H_fine U: each fine element block (projected as asked) is carried through U, so the
-//             result is positive semi-definite when the blocks are; one sparse product per assembly.
-//             The default: the cube-trampoline preview converges in 3.1 iterations per step.
+//   Galerkin  J^T H_fine J (U^T H_fine U when frozen): each fine element block (projected as asked) is
+//             carried through the prolongation's Jacobian, so the result is positive semi-definite when
+//             the blocks are; one sparse product per assembly.
 //   Lagged    the Galerkin Hessian of the step's first Newton iterate, reused for the next few iterates
 //             and then recomputed (a modified Newton method, see kLaggedRefreshEvery): the fine element
 //             Hessians, their projections and the product are paid once every few iterates, and the
@@ -29,7 +41,8 @@
 //             of value(); the coarse shell is much stiffer than the finest seen through P, and the
 //             same preview needed 176 iterations per step (most steps hit the cap).
 //
-// Velocities prolong with U alone (begin_step gives the fine term the start state U x + A, U v).
+// Velocities prolong with the Jacobian at the start state (begin_step gives the fine term P(x), J v;
+// frozen: U x + A, U v): the velocity of the prolonged shape.
 //
 // Conventions: stacked vectors, x[3i + k] = coordinate k of vertex i (m); fine vertex ids are the
 // finest level's global ids, coarse ids level l's.
@@ -44,24 +57,38 @@
 
 namespace pd {
 
-// The prolongation of one level and its frozen offsets, shared by all the level's prolonged terms
-// (so the offsets are computed once per refresh, not once per term).
+enum class ProlongedGradient {
+  Exact,   // offsets follow x: value Psi(P(x)), gradient J^T grad Psi (the default; see above)
+  Frozen,  // PSQ / PD 4.6: offsets frozen at the last accepted iterate, gradient U^T grad Psi
+};
+
+// The prolongation of one level, shared by all the level's prolonged terms, so P(x) and its
+// Jacobian are computed once per state x, not once per term: the last state's are kept (the terms
+// of one Newton iterate ask for the same x). Not thread-safe (the cache is mutable).
 class ProlongationState {
  public:
   // prolongation: P^l (fine = finest level, coarse = level l); not owned, must outlive this.
-  // coarse_rest: level l's rest positions (stacked), where the offsets start (a(rest) = the rest
+  // coarse_rest: level l's rest positions (stacked), where frozen offsets start (a(rest) = the rest
   // offsets).
-  ProlongationState(const ShellProlongation& prolongation, const Eigen::VectorXd& coarse_rest);
+  ProlongationState(const ShellProlongation& prolongation, const Eigen::VectorXd& coarse_rest,
+                    ProlongedGradient gradient = ProlongedGradient::Exact);
 
-  // Recomputes the frozen offsets at x (stacked coarse positions). A deformed coarse face with
-  // (numerically) zero area has no normal or rotation: the offsets are then kept as they were
-  // (returns false) rather than replaced by NaN; true when they were refreshed.
+  ProlongedGradient gradient_mode() const { return mode_; }
+
+  // Frozen: recomputes the frozen offsets at x (stacked coarse positions); a deformed coarse face
+  // with (numerically) zero area has no normal or rotation, and the offsets are then kept as they
+  // were (returns false) rather than replaced by NaN; true when they were refreshed.
+  // Exact: nothing to refresh (the offsets are always those of the state asked about): false.
   bool refresh(const Eigen::VectorXd& x);
 
-  // U x + A, stacked fine positions (m).
+  // The prolonged shape, stacked fine positions (m): P(x) (exact; throws
+  // DegenerateProlongationTriangle) or U x + A (frozen).
   Eigen::VectorXd fine_positions(const Eigen::VectorXd& x) const;
-  // U^T g (stacked fine -> stacked coarse).
-  Eigen::VectorXd restrict(const Eigen::VectorXd& g_fine) const { return P_->restrict_gradient(g_fine); }
+  // The derivative of fine_positions at x, stacked (3 n_fine x 3 n_coarse): J(x) (exact; throws
+  // DegenerateProlongationTriangle) or U (x) I3 (frozen). The reference is valid until the next call.
+  const Eigen::SparseMatrix<double>& jacobian(const Eigen::VectorXd& x) const;
+  // jacobian(x)^T g (stacked fine -> stacked coarse), e.g. a fine gradient (N) to the coarse one.
+  Eigen::VectorXd restrict(const Eigen::VectorXd& x, const Eigen::VectorXd& g_fine) const;
   // U (x) I3, stacked (3 n_fine x 3 n_coarse).
   const Eigen::SparseMatrix<double>& U() const { return P_->U_stacked(); }
   int num_coarse() const { return P_->num_coarse(); }
@@ -69,12 +96,19 @@ class ProlongationState {
 
  private:
   const ShellProlongation* P_;
-  Positions offsets_;  // A, (n_fine, 3) m
+  ProlongedGradient mode_;
+  Positions offsets_;  // frozen A, (n_fine, 3) m
+  // Exact mode's cache: the state last asked about, its P(x) and J(x) (J computed on first use).
+  mutable Eigen::VectorXd cached_x_, cached_y_;
+  mutable bool cached_y_valid_ = false;
+  mutable Eigen::VectorXd jacobian_x_;
+  mutable Eigen::SparseMatrix<double> jacobian_;
+  mutable bool jacobian_valid_ = false;
 };
 
 enum class ProlongedHessian {
-  Galerkin,  // U^T H_fine U, at every Newton iterate
-  Lagged,    // U^T H_fine U at the first Newton iterate of each step and every kLaggedRefreshEvery-th
+  Galerkin,  // J^T H_fine J, at every Newton iterate
+  Lagged,    // J^T H_fine J at the first Newton iterate of each step and every kLaggedRefreshEvery-th
              // after it, reused in between
   Coarse,    // the stand-in term's Hessian on the level's own mesh
 };
@@ -103,9 +137,10 @@ class ProlongedTerm : public EnergyTerm {
   double value(const Eigen::VectorXd& x) const override;
   void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const override;
   void add_hessian(const Eigen::VectorXd& x, HessianProjection projection, HessianAssembly& hessian) const override;
-  // Hands the fine term the prolonged start state (positions U x + A, velocities U v).
+  // Hands the fine term the prolonged start state (positions P(x), velocities J v).
   void begin_step(const StepStart& step) override;
-  // The fine term's admissible step along the prolonged motion U dx (pressure's volume guard).
+  // The fine term's admissible step along the linearised prolonged motion J dx (pressure's volume
+  // guard).
   double max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const override;
 
  private:
@@ -113,7 +148,7 @@ class ProlongedTerm : public EnergyTerm {
   std::shared_ptr<ProlongationState> state_;
   ProlongedHessian mode_;
   std::unique_ptr<EnergyTerm> coarse_;
-  // U^T H_fine U as 3x3 blocks (i, j), i >= j coarse vertex ids, column by column.
+  // J^T H_fine J as 3x3 blocks (i, j), i >= j coarse vertex ids, column by column.
   struct GalerkinBlock {
     int i, j;
     Mat3 block;

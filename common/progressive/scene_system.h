@@ -40,8 +40,9 @@ struct SceneSystem {
   ContactControl contact;                // the contact and strain-limit terms in ip, if any
   PinTargetTerm* pin_target = nullptr;   // in ip when some pin has a script (see level_stepper.cpp)
   double average_free_mass = 0.0;        // mean lumped mass of the vertices with mass, kg
-  // A coarse level of a progressive run (progressive/level_system.h): the prolongation whose frozen
-  // offsets its elasticity uses, refreshed by the stepper at every Newton iterate. Null otherwise.
+  // A coarse level of a progressive run (progressive/level_system.h): the prolongation its
+  // elasticity is evaluated through (frozen offsets, if chosen, are refreshed by the stepper at
+  // every Newton iterate). Null otherwise.
   std::shared_ptr<ProlongationState> prolongation;
 };
 

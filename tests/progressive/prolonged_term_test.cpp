@@ -1,6 +1,7 @@
 // The finest level's elasticity felt through the shell prolongation (progressive/prolonged_term.h):
-// derivatives of the frozen-offset energy, the Galerkin Hessian against a dense U^T H U, the rest
-// state, rigid motions, and the coarse stand-in Hessian.
+// derivatives of the exact and the frozen-offset energy, the Galerkin Hessian against a dense
+// J^T H J (U^T H U), the rest state, rigid motions (value, net force and torque), and the coarse
+// stand-in Hessian.
 #include "progressive/prolonged_term.h"
 
 #include <gtest/gtest.h>
@@ -54,9 +55,41 @@ struct Sheet {
   }
 };
 
-TEST(ProlongedTerm, FrozenOffsetEnergyDerivativesMatchFiniteDifferences) {
+TEST(ProlongedTerm, ExactGradientMatchesFiniteDifferencesOfTheFullProlongedEnergy) {
   Sheet s;
   auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
+  const Eigen::VectorXd x = s.deformed();
+  for (const bool bend : {false, true}) {
+    SCOPED_TRACE(bend ? "bending" : "membrane");
+    const ProlongedTerm term(bend ? s.bending(s.fine()) : s.membrane(s.fine()), state, ProlongedHessian::Galerkin);
+    ASSERT_GT(term.value(x), 0.0);
+    // The Gauss-Newton Hessian drops grad Psi . d2a/dx2, so only the gradient is exact here (the
+    // Hessian is checked at rest below and against J^T H J in the next test).
+    const test::TermFdCheck c = test::check_term_derivatives(term, x);
+    EXPECT_GT(c.gradient.comparisons, 0);
+    EXPECT_GE(c.gradient.steps_within(1e-6), 2) << "best " << c.gradient.best_rel_error;
+  }
+}
+
+// Where the fine forces vanish (the rest state), the dropped term is zero and J^T H J is the exact
+// Hessian; with a pressure-free rest state both membrane and bending are at rest there.
+TEST(ProlongedTerm, ExactGaussNewtonHessianMatchesFiniteDifferencesAtRest) {
+  Sheet s;
+  const Eigen::VectorXd rest = stacked(s.coarse().V);
+  auto state = std::make_shared<ProlongationState>(s.P(), rest);
+  // A tiny wave keeps the check away from the flat sheet's singular bending Hessian while grad Psi
+  // stays negligible against H dx.
+  const Eigen::VectorXd x = rest + 1e-7 * test::wavy(rest.size(), 0.9, 0.3);
+  for (const bool bend : {false, true}) {
+    SCOPED_TRACE(bend ? "bending" : "membrane");
+    const ProlongedTerm term(bend ? s.bending(s.fine()) : s.membrane(s.fine()), state, ProlongedHessian::Galerkin);
+    test::expect_derivatives_match(test::check_term_derivatives(term, x), 1e-4, 1e-4);
+  }
+}
+
+TEST(ProlongedTerm, FrozenOffsetEnergyDerivativesMatchFiniteDifferences) {
+  Sheet s;
+  auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V), ProlongedGradient::Frozen);
   const Eigen::VectorXd x = s.deformed();
   ASSERT_TRUE(state->refresh(x));
   for (const bool bend : {false, true}) {
@@ -67,13 +100,18 @@ TEST(ProlongedTerm, FrozenOffsetEnergyDerivativesMatchFiniteDifferences) {
   }
 }
 
-TEST(ProlongedTerm, GradientAndGalerkinHessianAreUTransposeTimesTheFineOnes) {
+TEST(ProlongedTerm, GradientAndGalerkinHessianAreJTransposeTimesTheFineOnes) {
+  for (const ProlongedGradient mode : {ProlongedGradient::Exact, ProlongedGradient::Frozen}) {
+  SCOPED_TRACE(mode == ProlongedGradient::Exact ? "exact" : "frozen");
   Sheet s;
-  auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
+  auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V), mode);
   const Eigen::VectorXd x = s.deformed();
-  ASSERT_TRUE(state->refresh(x));
+  EXPECT_EQ(state->refresh(x), mode == ProlongedGradient::Frozen);
   const Eigen::VectorXd y = state->fine_positions(x);
-  const Eigen::MatrixXd U = Eigen::MatrixXd(state->U());
+  EXPECT_LT((as_rows(y) - s.P().apply(as_rows(x))).cwiseAbs().maxCoeff(), 1e-14);
+  // Exact: the full Jacobian; frozen: U (x) I3.
+  const Eigen::MatrixXd U = mode == ProlongedGradient::Exact ? Eigen::MatrixXd(s.P().jacobian(as_rows(x)))
+                                                             : Eigen::MatrixXd(state->U());
   for (const bool bend : {false, true}) {
     SCOPED_TRACE(bend ? "bending" : "membrane");
     const auto fine = bend ? s.bending(s.fine()) : s.membrane(s.fine());
@@ -85,6 +123,7 @@ TEST(ProlongedTerm, GradientAndGalerkinHessianAreUTransposeTimesTheFineOnes) {
       const Eigen::MatrixXd H = U.transpose() * test::term_hessian(*fine, y, p) * U;
       EXPECT_LE((test::term_hessian(term, x, p) - H).norm(), 1e-10 * H.norm());
     }
+  }
   }
 }
 
@@ -103,26 +142,61 @@ TEST(ProlongedTerm, RestStateHasNoEnergyAndNoForce) {
 }
 
 TEST(ProlongedTerm, ValueIsUnchangedByARigidMotionOnceTheOffsetsFollow) {
+  for (const ProlongedGradient mode : {ProlongedGradient::Exact, ProlongedGradient::Frozen}) {
+    SCOPED_TRACE(mode == ProlongedGradient::Exact ? "exact" : "frozen");
+    Sheet s;
+    auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V), mode);
+    const ProlongedTerm membrane(s.membrane(s.fine()), state, ProlongedHessian::Galerkin);
+    const ProlongedTerm bending(s.bending(s.fine()), state, ProlongedHessian::Galerkin);
+    const Eigen::VectorXd x = s.deformed();
+    state->refresh(x);  // frozen only (exact offsets always follow)
+    const double em = membrane.value(x), eb = bending.value(x);
+    const Mat3 R = Eigen::AngleAxisd(0.7, Vec3(1, -2, 0.5).normalized()).toRotationMatrix();
+    Positions moved = as_rows(x);
+    for (int i = 0; i < moved.rows(); ++i) moved.row(i) = (R * moved.row(i).transpose() + Vec3(0.3, -1, 2)).transpose();
+    state->refresh(stacked(moved));
+    EXPECT_NEAR(membrane.value(stacked(moved)), em, 1e-10 * em);
+    EXPECT_NEAR(bending.value(stacked(moved)), eb, 1e-10 * eb);
+  }
+}
+
+// Internal forces of a free body have zero net force and zero net torque. The exact prolonged
+// forces -J^T grad Psi do (Psi(P(x)) is rigid-invariant); the frozen ones -U^T grad Psi have the net
+// torque -sum_i A_i x f_i (docs/stress.md, finding 2): this test tells the two apart.
+TEST(ProlongedTerm, ExactForcesHaveNoNetTorqueWhereFrozenOffsetForcesDo) {
   Sheet s;
-  auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
-  const ProlongedTerm membrane(s.membrane(s.fine()), state, ProlongedHessian::Galerkin);
-  const ProlongedTerm bending(s.bending(s.fine()), state, ProlongedHessian::Galerkin);
   const Eigen::VectorXd x = s.deformed();
-  ASSERT_TRUE(state->refresh(x));
-  const double em = membrane.value(x), eb = bending.value(x);
-  const Mat3 R = Eigen::AngleAxisd(0.7, Vec3(1, -2, 0.5).normalized()).toRotationMatrix();
-  Positions moved = as_rows(x);
-  for (int i = 0; i < moved.rows(); ++i) moved.row(i) = (R * moved.row(i).transpose() + Vec3(0.3, -1, 2)).transpose();
-  ASSERT_TRUE(state->refresh(stacked(moved)));
-  EXPECT_NEAR(membrane.value(stacked(moved)), em, 1e-10 * em);
-  EXPECT_NEAR(bending.value(stacked(moved)), eb, 1e-10 * eb);
+  double torque_ratio[2] = {0, 0};  // |net torque| / sum_j |x_j - c| |F_j|, exact then frozen
+  for (const ProlongedGradient mode : {ProlongedGradient::Exact, ProlongedGradient::Frozen}) {
+    SCOPED_TRACE(mode == ProlongedGradient::Exact ? "exact" : "frozen");
+    auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V), mode);
+    state->refresh(x);
+    const ProlongedTerm membrane(s.membrane(s.fine()), state, ProlongedHessian::Galerkin);
+    const ProlongedTerm bending(s.bending(s.fine()), state, ProlongedHessian::Galerkin);
+    const Eigen::VectorXd F = -(test::term_gradient(membrane, x) + test::term_gradient(bending, x));
+    const Positions Xr = as_rows(x), Fr = as_rows(F);
+    const Vec3 c = Xr.colwise().mean().transpose();
+    Vec3 net_force = Vec3::Zero(), net_torque = Vec3::Zero();
+    double force_scale = 0, torque_scale = 0;
+    for (int j = 0; j < Xr.rows(); ++j) {
+      const Vec3 f = Fr.row(j).transpose(), r = Xr.row(j).transpose() - c;
+      net_force += f;
+      net_torque += r.cross(f);
+      force_scale += f.norm();
+      torque_scale += r.norm() * f.norm();
+    }
+    ASSERT_GT(force_scale, 0.0);
+    EXPECT_LT(net_force.norm(), 1e-9 * force_scale);  // U's rows sum to 1: both modes
+    torque_ratio[mode == ProlongedGradient::Exact ? 0 : 1] = net_torque.norm() / torque_scale;
+  }
+  EXPECT_LT(torque_ratio[0], 1e-9);
+  EXPECT_GT(torque_ratio[1], 1e-4) << "the frozen-offset torque this test relies on vanished";
 }
 
 TEST(ProlongedTerm, CoarseHessianIsTheStandInsWhileValueAndGradientStayProlonged) {
   Sheet s;
   auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
   const Eigen::VectorXd x = s.deformed();
-  ASSERT_TRUE(state->refresh(x));
   const ProlongedTerm galerkin(s.membrane(s.fine()), state, ProlongedHessian::Galerkin);
   const ProlongedTerm coarse(s.membrane(s.fine()), state, ProlongedHessian::Coarse, s.membrane(s.coarse()));
   const auto stand_in = s.membrane(s.coarse());
@@ -140,7 +214,6 @@ TEST(ProlongedTerm, LaggedHessianIsGalerkinAtRefreshesAndReusedBetweenThem) {
   auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
   const Eigen::VectorXd x1 = s.deformed();
   const Eigen::VectorXd x2 = 1.01 * x1 + Eigen::VectorXd::Constant(x1.size(), 0.002);
-  ASSERT_TRUE(state->refresh(x1));
   const ProlongedTerm galerkin(s.bending(s.fine()), state, ProlongedHessian::Galerkin);
   ProlongedTerm lagged(s.bending(s.fine()), state, ProlongedHessian::Lagged);
   const HessianProjection none = HessianProjection::None, clamp = HessianProjection::Clamp;
@@ -172,15 +245,23 @@ TEST(ProlongedTerm, HessianNamesParseAndUnknownOnesAreRefused) {
   EXPECT_THROW(parse_prolonged_hessian("Galerkin"), std::invalid_argument);
 }
 
-TEST(ProlongedTerm, DegenerateCoarseFaceKeepsTheLastOffsetsAndBadInputIsRefused) {
+// A state where coarse faces collapse to lines has no prolongation: frozen offsets stay as they were,
+// the exact energy is +infinity there (a line search rejects it).
+TEST(ProlongedTerm, DegenerateCoarseFaceKeepsFrozenOffsetsOrHasInfiniteEnergyAndBadInputIsRefused) {
   Sheet s;
   const Eigen::VectorXd rest = stacked(s.coarse().V);
-  auto state = std::make_shared<ProlongationState>(s.P(), rest);
-  const Eigen::VectorXd before = state->fine_positions(rest);
   Eigen::VectorXd flat = rest;
   for (Eigen::Index i = 0; i < flat.size(); i += 3) flat[i] = 0.0;  // every face collapses to a line
-  EXPECT_FALSE(state->refresh(flat));
-  EXPECT_TRUE(state->fine_positions(rest) == before);
+  auto frozen = std::make_shared<ProlongationState>(s.P(), rest, ProlongedGradient::Frozen);
+  const Eigen::VectorXd before = frozen->fine_positions(rest);
+  EXPECT_FALSE(frozen->refresh(flat));
+  EXPECT_TRUE(frozen->fine_positions(rest) == before);
+
+  auto state = std::make_shared<ProlongationState>(s.P(), rest);
+  const ProlongedTerm membrane(s.membrane(s.fine()), state, ProlongedHessian::Galerkin);
+  EXPECT_TRUE(std::isinf(membrane.value(flat)));
+  EXPECT_THROW(state->fine_positions(flat), DegenerateProlongationTriangle);
+  EXPECT_LT(std::abs(membrane.value(rest)), 1e-12);  // a failed state leaves no stale cache behind
 
   EXPECT_THROW(ProlongedTerm(nullptr, state, ProlongedHessian::Galerkin), std::invalid_argument);
   EXPECT_THROW(ProlongedTerm(s.membrane(s.fine()), nullptr, ProlongedHessian::Galerkin), std::invalid_argument);
