@@ -32,8 +32,11 @@ bool drain(int out_fd, int err_fd, std::string& out, std::string& err, Clock::ti
   int open = 2;
   char buf[65536];
   while (open > 0) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-    if (left <= 0) return false;
+    const auto now = Clock::now();
+    if (now >= deadline) return false;
+    // Rounded up: truncating would give up to 1 ms before the deadline (a 0.3 s timeout then
+    // reported 0.2997 s).
+    const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline - now).count();
     const int n = poll(fds, 2, static_cast<int>(left));
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) return false;
