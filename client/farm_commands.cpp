@@ -67,7 +67,11 @@ void print_job(const JobStatus& j) {
     const std::string what = "  task " + std::to_string(t.id) + " " + task_range(t);
     if (t.state == TaskState::running) {
       const std::string frames = t.kind == TaskKind::level ? ": " + counted(t.frames_done, "frame") + "," : ",";
-      std::printf("%s%s on %s\n", what.c_str(), frames.c_str(), t.worker.empty() ? "?" : t.worker.c_str());
+      std::printf("%s%s on %s%s\n", what.c_str(), frames.c_str(), t.worker.empty() ? "?" : t.worker.c_str(),
+                  t.horizontal ? " (continuing horizontally: its vertical start was refused)" : "");
+    } else if (t.horizontal && t.state == TaskState::waiting) {
+      std::printf("%s: waits for level %d's frame %d (its vertical start was refused)\n", what.c_str(), t.level,
+                  t.first);
     } else if (t.state == TaskState::failed || t.state == TaskState::blocked) {
       const std::string attempts = t.state == TaskState::failed ? " after " + counted(t.attempts, "attempt") : "";
       std::printf("%s: %s%s%s%s\n", what.c_str(), protocol::to_string(t.state).c_str(), attempts.c_str(),

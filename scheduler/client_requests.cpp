@@ -141,6 +141,7 @@ protocol::JobStatus Scheduler::job_status(const JobRow& job) {
     ts.state = t.state;
     ts.reason = t.reason;
     ts.attempts = t.attempts;
+    ts.horizontal = store_->continues_horizontally(t.id);
     ts.worker = t.worker ? names[t.worker] : "";
     if (const std::optional<farm::FrameRange> own = farm::produced_frames(as_new_task(t)))
       ts.frames_done = static_cast<int>(store_->stored_frames(job.id, own->level, own->first, own->last).size());

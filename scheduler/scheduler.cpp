@@ -217,8 +217,9 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
       return false;
     }
     // Continuing horizontally from its own frames start-1 and start (and their barrier stiffness):
-    // the preview after its first chunk, and any task whose earlier attempt stored some frames.
-    if (a.start > t.first || (t.level == 0 && t.first > 0)) {
+    // the preview after its first chunk, a subset whose vertical start was refused, and any task
+    // whose earlier attempt stored some frames.
+    if (a.start > t.first || (t.first > 0 && (t.level == 0 || store_->continues_horizontally(t.id)))) {
       a.own_before = as_vector(f->writer->read_frame(t.level, a.start - 1));
       a.own_start = as_vector(f->writer->read_frame(t.level, a.start));
       a.own_kappa = store_->frame_kappa(t.job, {t.level, a.start});
@@ -253,7 +254,8 @@ int Scheduler::continuation_start(const TaskRow& t) const {
     if (frame != (last_stored < 0 ? own->first : last_stored + 1)) break;
     last_stored = frame;
   }
-  const int earliest = t.level >= 1 && t.first > 0 ? t.first + 2 : t.first + 1;
+  const bool vertical = t.level >= 1 && t.first > 0 && !store_->continues_horizontally(t.id);
+  const int earliest = vertical ? t.first + 2 : t.first + 1;
   return last_stored >= earliest ? last_stored : t.first;
 }
 

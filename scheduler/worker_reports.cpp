@@ -223,7 +223,20 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskDone& m) {
 void Scheduler::on_report(const std::string& identity, protocol::TaskFailed& m) {
   Session* s = attempt_session(identity, m.attempt, m.task, "task_failed");
   if (!s) return;
-  attempt_failed(*s, store_->task(m.task), m.message);
+  const TaskRow t = store_->task(m.task);
+  if (m.failure == protocol::FailureKind::vertical_start_refused && t.kind == protocol::TaskKind::level &&
+      t.level >= 1 && t.first >= 1 && !store_->continues_horizontally(t.id)) {
+    // Deterministic (the same frames upsample the same way on every worker): rather than retrying
+    // and failing the job, the subset waits for the one before it and continues from its frames,
+    // as if the seam were not there (the level then loses that seam's parallelism, not the job).
+    const int64_t attempt = s->attempt;
+    end_attempt_of(*s);
+    store_->continue_horizontally(t.id, attempt, m.message);
+    event("task_continues_horizontally", t.job, t.id, s->worker,
+          "attempt " + std::to_string(attempt) + ": " + m.message.substr(0, 300));
+    return;
+  }
+  attempt_failed(*s, t, m.message);
 }
 
 // A stopping worker: lost now rather than after the liveness time, so its task moves at once (a

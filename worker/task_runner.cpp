@@ -17,6 +17,7 @@
 #include "progressive/level_system.h"
 #include "progressive/level_task.h"
 #include "progressive/prolonged_term.h"
+#include "hierarchy/safe_upsampling.h"
 #include "store/hierarchy_store.h"
 
 namespace pd::worker {
@@ -168,6 +169,9 @@ void TaskRunner::run(protocol::AssignTask task) {
     failed.attempt = task.attempt;
     failed.task = task.task;
     failed.message = e.what();
+    // Only a vertical start upsamples (level_task.h): the scheduler lets such a task continue
+    // horizontally instead of retrying the same refusal elsewhere.
+    if (dynamic_cast<const UpsamplingFailed*>(&e)) failed.failure = protocol::FailureKind::vertical_start_refused;
     protocol::Parts parts;
     try {
       parts = protocol::encode(failed);

@@ -10,7 +10,8 @@
 //   3. unless preview_only, each level l = 1..L cut into K time subsets (a, b] with boundaries
 //      b_k = round(k N / K) = (k N + K / 2) / K in integer arithmetic (K is clamped to N so that no
 //      subset is empty). The first subset starts from the level's initial state at frame 0, the
-//      others vertically (safe upsampling of level l - 1's frame a).
+//      others vertically (safe upsampling of level l - 1's frame a); one whose vertical start is
+//      refused continues horizontally instead (TaskStore::continue_horizontally adds the needs).
 // Every task but the hierarchy task waits for the hierarchy task (after_hierarchy).
 //
 // Frame dependencies (PD eq. 5): step t -> t + 1 of level l >= 1 reads level l - 1's frames t and

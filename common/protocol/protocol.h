@@ -37,7 +37,8 @@ namespace pd::protocol {
 // 2: AssignTask.start, heartbeat ping/pong, RequeueJob.
 // 3: Hello.slurm_job, Goodbye, AddSlurmWorkers / RemoveSlurmWorkers / SlurmAccepted, WorkersReply's
 //    Slurm part.
-constexpr int kProtocolVersion = 3;
+// 4: TaskFailed.failure (FailureKind), TaskStatus.horizontal.
+constexpr int kProtocolVersion = 4;
 
 // Upper bound on a whole message (all parts), bytes; larger messages are refused when decoded (and
 // sockets set ZMQ_MAXMSGSIZE to it). 1 GiB: a job file fetched in one reply must fit.
@@ -76,13 +77,25 @@ enum class TaskKind {
   level,      // solve level `level`, frames (first, last] (progressive/level_task.h)
 };
 
+// Why an attempt failed, as far as the scheduler acts on it.
+enum class FailureKind {
+  error,                   // anything else (bad input, a solver error): retried on other workers,
+                           // then the task fails for good (TaskStore::fail_attempt)
+  vertical_start_refused,  // a level >= 1 subset (a, b], a > 0, found no safe upsampling of level
+                           // l - 1's frame a (UpsamplingFailed): deterministic, so no other worker
+                           // would do better; the task continues horizontally from its own level's
+                           // frames a - 1 and a instead (TaskStore::continue_horizontally)
+};
+
 std::string to_string(JobState s);
 std::string to_string(TaskState s);
 std::string to_string(TaskKind k);
+std::string to_string(FailureKind k);
 // Throw ProtocolError("<what>: unknown job state 'x'") etc. for an unknown name.
 JobState parse_job_state(const std::string& name, const std::string& what);
 TaskState parse_task_state(const std::string& name, const std::string& what);
 TaskKind parse_task_kind(const std::string& name, const std::string& what);
+FailureKind parse_failure_kind(const std::string& name, const std::string& what);
 
 // A named scalar statistic of a frame (store/frame_store.h FrameStats::scalars).
 using Stat = std::pair<std::string, double>;
@@ -217,6 +230,7 @@ struct TaskFailed {
   int64_t attempt = 0;
   int64_t task = 0;
   std::string message;
+  FailureKind failure = FailureKind::error;
 };
 
 // A hierarchy task's result: the hierarchy file (store/hierarchy_store.h) as bytes (data part 1).
@@ -338,6 +352,9 @@ struct TaskStatus {
   std::string worker;     // name of the worker running it, or of the one that finished it
   int attempts = 0;
   std::string reason;     // failed / blocked: why
+  // A subset (level >= 1, first > 0) whose vertical start was refused and that continues from its
+  // own level's frames instead (FailureKind::vertical_start_refused).
+  bool horizontal = false;
 };
 
 struct JobStatus {

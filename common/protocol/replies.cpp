@@ -35,6 +35,7 @@ Json task_json(const TaskStatus& t) {
   j["worker"] = t.worker;
   j["attempts"] = t.attempts;
   j["reason"] = t.reason;
+  j["horizontal"] = t.horizontal;
   return j;
 }
 
@@ -191,6 +192,7 @@ TaskStatus read_task(const Fields& f) {
   t.worker = f.text("worker");
   t.attempts = f.count("attempts");
   t.reason = f.text("reason");
+  t.horizontal = f.boolean("horizontal");
   return t;
 }
 

@@ -62,6 +62,7 @@ Parts encode(const TaskFailed& m) {
   h["attempt"] = m.attempt;
   h["task"] = m.task;
   h["message"] = m.message;
+  h["failure"] = to_string(m.failure);
   return wire::finish(h);
 }
 
@@ -159,6 +160,7 @@ Report decode_task_failed(const Message& msg) {
   m.attempt = f.id("attempt");
   m.task = f.id("task");
   m.message = f.text("message");
+  m.failure = parse_failure_kind(f.text("failure"), "task_failed: field 'failure'");
   return m;
 }
 

@@ -39,12 +39,15 @@ constexpr std::array<std::pair<TaskState, const char*>, 7> kTaskStates{{{TaskSta
                                                                          {TaskState::cancelled, "cancelled"}}};
 constexpr std::array<std::pair<TaskKind, const char*>, 2> kTaskKinds{
     {{TaskKind::hierarchy, "hierarchy"}, {TaskKind::level, "level"}}};
+constexpr std::array<std::pair<FailureKind, const char*>, 2> kFailureKinds{
+    {{FailureKind::error, "error"}, {FailureKind::vertical_start_refused, "vertical_start_refused"}}};
 
 }  // namespace
 
 std::string to_string(JobState s) { return name_of(kJobStates, s); }
 std::string to_string(TaskState s) { return name_of(kTaskStates, s); }
 std::string to_string(TaskKind k) { return name_of(kTaskKinds, k); }
+std::string to_string(FailureKind k) { return name_of(kFailureKinds, k); }
 
 JobState parse_job_state(const std::string& name, const std::string& what) {
   return value_of(kJobStates, name, what, "job state");
@@ -54,6 +57,9 @@ TaskState parse_task_state(const std::string& name, const std::string& what) {
 }
 TaskKind parse_task_kind(const std::string& name, const std::string& what) {
   return value_of(kTaskKinds, name, what, "task kind");
+}
+FailureKind parse_failure_kind(const std::string& name, const std::string& what) {
+  return value_of(kFailureKinds, name, what, "failure kind");
 }
 
 }  // namespace pd::protocol

@@ -73,6 +73,8 @@ std::vector<double> blob_doubles(const Db& db, const std::string& bytes, const c
 // becomes kRequeuedFailure).
 constexpr char kFailure[] = "failed";
 constexpr char kRequeuedFailure[] = "failed, requeued";
+// An attempt whose vertical start was refused (continue_horizontally): not a failure of the worker.
+constexpr char kVerticalRefused[] = "vertical start refused";
 
 // What most methods need of a job, without reading its scene.
 struct JobInfo {
@@ -472,6 +474,38 @@ FailOutcome TaskStore::fail_attempt(int64_t task, int64_t attempt, const std::st
     return o;
   });
   return out;
+}
+
+void TaskStore::continue_horizontally(int64_t task, int64_t attempt, const std::string& message) {
+  Db& db = impl_->db;
+  impl_->write("continue_horizontally", [&] {
+    const TaskRow t = read_task(db, task);
+    if (t.state != TaskState::running || t.attempt != attempt)
+      db.fail_with("continue_horizontally: attempt " + str(attempt) + " is not task " + str(task) +
+                   "'s running attempt");
+    if (t.kind != TaskKind::level || t.level < 1 || t.first < 1)
+      db.fail_with("continue_horizontally: task " + str(task) + " (level " + str(t.level) + ", first " +
+                   str(t.first) + ") does not start vertically");
+    run_sql(db, "UPDATE attempts SET ended = ?2, outcome = ?3, message = ?4 WHERE id = ?1", attempt, now(),
+            kVerticalRefused, message);
+    for (const int frame : {t.first - 1, t.first})
+      run_sql(db, "INSERT OR IGNORE INTO task_frames(task_id, level, frame) VALUES(?1, ?2, ?3)", task, t.level,
+              frame);
+    set_task_state(db, task, TaskState::waiting, "continues horizontally: " + message, false);
+    free_worker(db, t.worker, false);
+    promote(db, t.job);
+  });
+}
+
+bool TaskStore::continues_horizontally(int64_t task) const {
+  Db& db = impl_->db;
+  return impl_->read("continues_horizontally", [&] {
+    const TaskRow t = read_task(db, task);
+    if (t.kind != TaskKind::level || t.level < 1 || t.first < 1) return false;
+    Statement own(db, "SELECT COUNT(*) FROM task_frames WHERE task_id = ?1 AND level = ?2 AND frame = ?3");
+    own.bind_all(task, t.level, t.first).step();
+    return own.column_int(0) > 0;
+  });
 }
 
 bool TaskStore::may_run(int64_t task, int64_t worker) const {

@@ -176,6 +176,17 @@ class TaskStore {
   // again for any worker but those that failed it. The attempt's worker is blocklisted for the job
   // after kBlocklistFailures failed tasks of it.
   FailOutcome fail_attempt(int64_t task, int64_t attempt, const std::string& message);
+  // The running attempt `attempt` of a level >= 1 task (a, b], a > 0, found no safe upsampling for
+  // its vertical start (protocol::FailureKind::vertical_start_refused). That refusal depends only on
+  // the frames, so another worker would fail the same way: instead the task now also needs its own
+  // level's frames a - 1 and a (stored by the subset before it) and continues horizontally from them
+  // once they are (waiting until then). The attempt closes as "vertical start refused", which counts
+  // against neither the task nor the worker. Throws StoreError for another attempt or task.
+  void continue_horizontally(int64_t task, int64_t attempt, const std::string& message);
+  // Whether the task continues horizontally from its own level's frames (level >= 1, first > 0, and
+  // continue_horizontally made it need its own frame `first`). Level-0 chunks always do and are not
+  // reported here.
+  bool continues_horizontally(int64_t task) const;
   // Whether `worker` may take `task`: it has not failed it and is not blocklisted for its job.
   bool may_run(int64_t task, int64_t worker) const;
   // A failed job runs again: its failed and blocked tasks go back to waiting (ready when their inputs

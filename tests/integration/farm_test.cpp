@@ -1,8 +1,9 @@
 // The farm end to end: real pd-scheduler and pd-worker processes on loopback port-0 endpoints, driven
 // with the pd client as a user drives them (tests/support/process.h starts, bounds and stops them).
 // Checked: a K = 1 job gives the frames of `pd simulate --mode progressive` bit for bit; K = 2 keeps
-// every frame intersection-free and equal to K = 1 up to the first seam; the worker count changes no
-// frame; queueing and cancelling; bad input; `pd run`.
+// every frame intersection-free and equal to K = 1 up to the first seam; a refused vertical start
+// continues horizontally; the worker count changes no frame; queueing and cancelling; bad input;
+// `pd run`.
 //
 // Frames: cube-trampoline's full 200 for K = 1 (the job on two workers with its reference `pd
 // simulate` beside it: about 30 s on the 2-core machine); 110 with subsets (why: see
@@ -175,6 +176,40 @@ TEST_F(FarmTest, TwoSubsetsKeepEveryFrameIntersectionFreeAndEqualToOneSubsetBefo
                 seam + 1, kFrames, dev);
     RecordProperty("max_deviation_after_seam_level_" + std::to_string(l) + "_m", std::to_string(dev));
   }
+}
+
+// A subset whose vertical start is refused continues horizontally from the subset before it, so the
+// job ends done instead of failing. The flag at 20 frames, K = 2: safe upsampling of the preview's
+// frame 10 leaves a face beyond the scene's 5 % strain limit (LevelTask.AVerticalStartThatUpsamples
+// BeyondTheStrainLimitIsRefusedByName), so level 1's subset (10, 20] waits for (0, 10] and continues
+// from its frames 9 and 10: level 1 then has the single run's frames bit for bit. Level 2's seam may
+// go either way; a level whose seam continued horizontally must equal the single run.
+TEST_F(FarmTest, ASubsetWhoseVerticalStartIsRefusedContinuesHorizontallyAndTheJobEndsDone) {
+  constexpr int kFrames = 20;
+  Farm& farm = start_farm(2, "farm_refused_start");
+  const std::string scene = scene_path("flag.json"), ref_path = farm.dir() + "/ref.h5";
+  const int64_t job = submit(farm, {scene, "--frames", std::to_string(kFrames), "--subsets", "2"});
+  test::Process ref = start_reference(scene, ref_path, kFrames);
+  wait_until_done(farm, job, kLongJob);
+  fetch(farm, job, farm.dir() + "/job.h5");
+  finish_reference(ref, ref_path, kLongJob);
+
+  const json status = job_status(farm, job);
+  expect_every_level_complete(status, kFrames);
+  std::set<int> horizontal_levels;
+  for (const json& t : status.at("tasks")) {
+    if (!t.at("horizontal").get<bool>()) continue;
+    horizontal_levels.insert(t.at("level").get<int>());
+    EXPECT_EQ(t.at("first"), kFrames / 2) << t.dump();
+    EXPECT_EQ(t.at("attempts"), 2) << t.dump();  // the refused one and the horizontal one
+  }
+  EXPECT_TRUE(horizontal_levels.count(1)) << "level 1's vertical start at frame 10 was not refused: " << status.dump();
+  const FrameReader got(farm.dir() + "/job.h5"), want(ref_path);
+  ASSERT_EQ(got.num_levels(), 3);
+  expect_complete_and_intersection_free(got);
+  expect_identical_frames(got, want, 0, 0, kFrames);
+  for (int l = 1; l < got.num_levels(); ++l)
+    expect_identical_frames(got, want, l, 0, horizontal_levels.count(l) ? kFrames : kFrames / 2);
 }
 
 TEST_F(FarmTest, OneWorkerAndTwoWorkersGiveIdenticalFramesWithTwoSubsets) {

@@ -40,7 +40,8 @@ StatusReply sample_status() {
   a.levels = {{0, 41, 41, 128}, {1, 12, 41, 0}};
   a.tasks = {{2, TaskKind::hierarchy, 0, 0, 0, TaskState::done, 0, "w2", 1, ""},
              {3, TaskKind::level, 1, 0, 40, TaskState::running, 5, "w1", 1, ""},
-             {4, TaskKind::level, 2, 20, 40, TaskState::blocked, 0, "", 0, "task 3 failed"}};
+             {4, TaskKind::level, 2, 20, 40, TaskState::blocked, 0, "", 0, "task 3 failed"},
+             {5, TaskKind::level, 1, 20, 40, TaskState::waiting, 0, "", 1, "continues horizontally: ...", true}};
   JobStatus b;
   b.id = 2;
   b.name = "flag";
@@ -91,6 +92,7 @@ void expect_same(const JobStatus& a, const JobStatus& b) {
     EXPECT_EQ(s.worker, t.worker);
     EXPECT_EQ(s.attempts, t.attempts);
     EXPECT_EQ(s.reason, t.reason);
+    EXPECT_EQ(s.horizontal, t.horizontal);
   }
 }
 
@@ -201,7 +203,8 @@ TEST(ProtocolReplies, JsonTextIsPrettyWithStructFieldNamesInOrderAndStateNames) 
           "frames_done": 5,
           "worker": "w1",
           "attempts": 1,
-          "reason": ""
+          "reason": "",
+          "horizontal": false
         }
       ]
     }
@@ -245,7 +248,7 @@ TEST(ProtocolReplies, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(status, "", ""), 1);
   EXPECT_EQ(check_every_field_required(status, "/jobs/1", "jobs[1]."), 12);
   EXPECT_EQ(check_every_field_required(status, "/jobs/0/levels/1", "jobs[0].levels[1]."), 4);
-  EXPECT_EQ(check_every_field_required(status, "/jobs/0/tasks/2", "jobs[0].tasks[2]."), 10);
+  EXPECT_EQ(check_every_field_required(status, "/jobs/0/tasks/2", "jobs[0].tasks[2]."), 11);
   const Parts workers = encode(sample_workers());
   EXPECT_EQ(check_every_field_required(workers, "", ""), 3);
   EXPECT_EQ(check_every_field_required(workers, "/workers/1", "workers[1]."), 10);
@@ -262,7 +265,7 @@ TEST(ProtocolReplies, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(status, "", ""), 1);
   EXPECT_EQ(check_every_field_typed(status, "/jobs/0", "jobs[0]."), 12);
   EXPECT_EQ(check_every_field_typed(status, "/jobs/0/levels/0", "jobs[0].levels[0]."), 4);
-  EXPECT_EQ(check_every_field_typed(status, "/jobs/0/tasks/1", "jobs[0].tasks[1]."), 10);
+  EXPECT_EQ(check_every_field_typed(status, "/jobs/0/tasks/1", "jobs[0].tasks[1]."), 11);
   const Parts workers = encode(sample_workers());
   EXPECT_EQ(check_every_field_typed(workers, "", ""), 3);
   EXPECT_EQ(check_every_field_typed(workers, "/workers/0", "workers[0]."), 10);

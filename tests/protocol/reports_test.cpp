@@ -100,6 +100,9 @@ TEST(ProtocolReports, TaskDoneFailedAndHierarchyDoneRoundTrip) {
   EXPECT_EQ(f.attempt, 7);
   EXPECT_EQ(f.task, 8);
   EXPECT_EQ(f.message, "scenes/flag.json: no safe upsampling at frame 12");
+  EXPECT_EQ(f.failure, FailureKind::error);
+  const TaskFailed refused = round_trip(TaskFailed{7, 8, "safe upsampling: ...", FailureKind::vertical_start_refused});
+  EXPECT_EQ(refused.failure, FailureKind::vertical_start_refused);
   const HierarchyDone m = sample_hierarchy();
   const Parts parts = encode(m);
   ASSERT_EQ(parts.size(), 2u);
@@ -133,7 +136,7 @@ TEST(ProtocolReports, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(encode(WorkerHeartbeat{3})), 2);
   EXPECT_EQ(check_every_field_required(encode(sample_frame())), 7);
   EXPECT_EQ(check_every_field_required(encode(TaskDone{1, 2, 3, true, 4.0})), 5);
-  EXPECT_EQ(check_every_field_required(encode(TaskFailed{1, 2, "m"})), 3);
+  EXPECT_EQ(check_every_field_required(encode(TaskFailed{1, 2, "m"})), 4);
   EXPECT_EQ(check_every_field_required(encode(Goodbye{1, "m"})), 2);
   EXPECT_EQ(check_every_field_required(encode(sample_hierarchy())), 6);
 }
@@ -143,7 +146,7 @@ TEST(ProtocolReports, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(encode(WorkerHeartbeat{3})), 2);
   EXPECT_EQ(check_every_field_typed(encode(sample_frame())), 7);
   EXPECT_EQ(check_every_field_typed(encode(TaskDone{1, 2, 3, true, 4.0})), 5);
-  EXPECT_EQ(check_every_field_typed(encode(TaskFailed{1, 2, "m"})), 3);
+  EXPECT_EQ(check_every_field_typed(encode(TaskFailed{1, 2, "m"})), 4);
   EXPECT_EQ(check_every_field_typed(encode(Goodbye{1, "m"})), 2);
   EXPECT_EQ(check_every_field_typed(encode(sample_hierarchy())), 6);
 }

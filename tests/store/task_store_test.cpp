@@ -791,6 +791,50 @@ TEST_F(TaskStoreTest, AWorkerThatFailsThreeTasksOfAJobIsBlocklistedForThatJobOnl
   EXPECT_EQ(s.claim_next(good)->task.job, job);
 }
 
+// A refused vertical start (protocol::FailureKind::vertical_start_refused): the subset waits for its
+// own level's frames a - 1 and a, then is ready again; the refusal counts against neither the task
+// nor the worker, and only a vertically started subset can be turned.
+TEST_F(TaskStoreTest, ARefusedVerticalStartWaitsForTheLevelsOwnFramesAndCountsAsNoFailure) {
+  TaskStore s(path_);
+  const int64_t job = s.add_job(make_job(6, 2), {level_task(0, 0, 6), level_task(1, 0, 3, {{0, 0}}),
+                                                  level_task(1, 3, 6, {{0, 2}, {0, 3}})});
+  const std::vector<TaskRow> t = s.tasks(job);
+  for (int f = 0; f <= 3; ++f) s.record_frame(job, {0, f}, FrameData{});
+  EXPECT_EQ(states_of(s, job), "ready ready ready");
+  EXPECT_FALSE(s.continues_horizontally(t[2].id));
+  // Claim order is level, then first frame: the third worker gets the subset (3, 6].
+  ASSERT_EQ(s.claim_next(s.add_worker("w0", "host", "1.0", 1))->task.id, t[0].id);
+  ASSERT_EQ(s.claim_next(s.add_worker("w1", "host", "1.0", 1))->task.id, t[1].id);
+  const int64_t w = s.add_worker("w", "host", "1.0", 1);
+  const Claim c = *s.claim_next(w);
+  ASSERT_EQ(c.task.id, t[2].id);
+  EXPECT_EQ(store_error_of([&] { s.continue_horizontally(t[2].id, c.attempt + 1, "m"); }),
+            path_ + ": continue_horizontally: attempt " + std::to_string(c.attempt + 1) + " is not task " +
+                std::to_string(t[2].id) + "'s running attempt");
+  s.continue_horizontally(t[2].id, c.attempt, "safe upsampling: stretch 1.0523");
+  EXPECT_TRUE(s.continues_horizontally(t[2].id));
+  EXPECT_EQ(s.task(t[2].id).state, TaskState::waiting);
+  EXPECT_EQ(s.task(t[2].id).reason, "continues horizontally: safe upsampling: stretch 1.0523");
+  EXPECT_EQ(s.worker(w).state, "idle");
+  EXPECT_TRUE(s.may_run(t[2].id, w));  // not a failure of this worker
+  s.record_frame(job, {1, 2}, FrameData{});
+  EXPECT_EQ(s.task(t[2].id).state, TaskState::waiting);  // frame 3 of level 1 still missing
+  s.record_frame(job, {1, 3}, FrameData{});
+  EXPECT_EQ(s.task(t[2].id).state, TaskState::ready);
+  const Claim again = *s.claim_next(w);
+  EXPECT_EQ(again.task.id, t[2].id);
+  EXPECT_EQ(again.task.attempts, 2);
+  EXPECT_EQ(s.fail_attempt(t[2].id, again.attempt, "later error").workers_failed, 1);  // the refusal did not count
+
+  // The preview chunk (level 0) and a first subset (first 0) never start vertically.
+  const int64_t other = s.add_job(make_job(4, 2), {level_task(1, 0, 4)});
+  const Claim first = *s.claim_next(w);
+  ASSERT_EQ(first.task.job, other);
+  EXPECT_EQ(store_error_of([&] { s.continue_horizontally(first.task.id, first.attempt, "m"); }),
+            path_ + ": continue_horizontally: task " + std::to_string(first.task.id) +
+                " (level 1, first 0) does not start vertically");
+}
+
 TEST_F(TaskStoreTest, FailAttemptRefusesAnAttemptThatIsNotTheTasksRunningOne) {
   TaskStore s(path_);
   const int64_t job = s.add_job(make_job(2, 1), {level_task(0, 0, 2)});
