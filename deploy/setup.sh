@@ -19,6 +19,7 @@ PACKAGES=(
   slurm-wlm munge        # Slurm workers (deploy/slurm/): the test starts slurmctld + slurmd + munged on localhost
   systemd                # systemd-analyze verify of deploy/systemd/'s units (tests/deploy/)
   python3-matplotlib python3-h5py  # the speed-against-error report's plots (bench/report/), run with /usr/bin/python3
+  clang libclang-rt-14-dev  # libFuzzer targets (fuzz/, -DPD_BUILD_FUZZERS=ON, docs/fuzzing.md)
 )
 
 missing=()

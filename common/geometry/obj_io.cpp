@@ -6,10 +6,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
-#include <limits>
 #include <string_view>
 #include <vector>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "util/message_text.h"
 
 namespace pd {
 namespace {
@@ -22,12 +26,75 @@ namespace {
   throw InputError(path + ":" + std::to_string(line) + ": " + problem);
 }
 
-// Quotes a token for an error message, truncated so a line of garbage cannot flood the terminal.
-std::string quoted(std::string_view token) {
-  constexpr std::size_t kMax = 40;
-  std::string s(token.substr(0, kMax));
-  if (token.size() > kMax) s += "...";
-  return "'" + s + "'";
+// Quotes a token for an error message, cut and escaped so a line of garbage cannot flood the terminal.
+std::string quoted(std::string_view token) { return quoted_for_message(token, 40); }
+
+const char* file_kind(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+// Opens `path` for reading only if it is a regular file within the size limit. stat comes first, so
+// a FIFO or device is refused without an open() that could block; the open is non-blocking and
+// fstat checks again, so a file swapped for a FIFO in between cannot block either.
+std::FILE* open_regular_file(const std::string& path, const ObjLimits& limits) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) throw InputError(path + ": cannot open: " + std::strerror(errno));
+  auto check = [&](const struct stat& s) {
+    if (!S_ISREG(s.st_mode)) throw InputError(path + ": is " + file_kind(s.st_mode) + ", not an OBJ file");
+    if (static_cast<std::uintmax_t>(s.st_size) > limits.max_bytes) {
+      throw InputError(path + ": the file has " + std::to_string(s.st_size) + " bytes, more than the limit of " +
+                       std::to_string(limits.max_bytes));
+    }
+  };
+  check(st);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) throw InputError(path + ": cannot open: " + std::strerror(errno));
+  struct stat opened {};
+  if (::fstat(fd, &opened) != 0) {
+    const int saved = errno;
+    ::close(fd);
+    throw InputError(path + ": cannot open: " + std::strerror(saved));
+  }
+  try {
+    check(opened);
+  } catch (...) {
+    ::close(fd);
+    throw;
+  }
+  // Regular files ignore O_NONBLOCK, but clear it so reads behave as documented everywhere.
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  std::FILE* file = ::fdopen(fd, "rb");
+  if (!file) {
+    const int saved = errno;
+    ::close(fd);
+    throw InputError(path + ": cannot open: " + std::strerror(saved));
+  }
+  return file;
+}
+
+// Closes the FILE* on every path out of read_obj, exceptions included.
+struct FileCloser {
+  std::FILE* file;
+  ~FileCloser() { std::fclose(file); }
+};
+
+// Reads one line without its '\n' into `line`; false at the end of the file (or on a read error,
+// which the caller tells apart with ferror). Stops at `max_bytes` + 1 bytes so an endless line
+// cannot grow without bound.
+bool next_line(std::FILE* file, std::string& line, std::size_t max_bytes) {
+  line.clear();
+  int c = 0;
+  while ((c = getc_unlocked(file)) != EOF) {  // one thread owns `file`
+    if (c == '\n') return true;
+    line.push_back(static_cast<char>(c));
+    if (line.size() > max_bytes) return true;
+  }
+  return !line.empty();
 }
 
 bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
@@ -85,24 +152,30 @@ long long parse_index(std::string_view token, const std::string& path, long line
 
 }  // namespace
 
-TriMesh read_obj(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
+TriMesh read_obj(const std::string& path, const ObjLimits& limits) {
+  std::FILE* in = open_regular_file(path, limits);
+  const FileCloser closer{in};
 
   std::vector<double> coords;     // x, y, z per vertex
   std::vector<Corner> corners;    // 3 per triangle, resolved once all vertices are known
   std::string text;
   long line = 0;
-  while (std::getline(in, text)) {
+  std::uintmax_t bytes_read = 0;  // against max_bytes again: a file may grow, or lie about its size (/proc)
+  while (next_line(in, text, limits.max_line_bytes)) {
     ++line;
+    if (text.size() > limits.max_line_bytes)
+      fail(path, line, "line longer than " + std::to_string(limits.max_line_bytes) + " bytes");
+    bytes_read += text.size() + 1;
+    if (bytes_read > limits.max_bytes + 1)
+      fail(path, line, "the file grew past the limit of " + std::to_string(limits.max_bytes) + " bytes while being read");
     const std::vector<std::string_view> tok = tokenize(text);
     if (tok.empty()) continue;
     if (tok[0] == "v") {
       // A 4th value (w, or the r of "v x y z r g b" colours) is allowed and ignored.
       if (tok.size() < 4) fail(path, line, "vertex needs 3 coordinates, got " + std::to_string(tok.size() - 1));
+      if (static_cast<long long>(coords.size() / 3) >= limits.max_vertices)
+        fail(path, line, "more than " + std::to_string(limits.max_vertices) + " vertices (the limit)");
       for (int k = 1; k <= 3; ++k) coords.push_back(parse_coordinate(tok[k], path, line));
-      if (coords.size() / 3 > static_cast<std::size_t>(std::numeric_limits<int>::max()))
-        fail(path, line, "too many vertices");
     } else if (tok[0] == "f") {
       if (tok.size() < 4) fail(path, line, "face needs at least 3 vertex indices, got " + std::to_string(tok.size() - 1));
       // Negative indices count back from the last vertex read so far, so resolve them now; positive
@@ -126,18 +199,14 @@ TriMesh read_obj(const std::string& path) {
         corners.push_back({idx[k], line});
         corners.push_back({idx[k + 1], line});
       }
-      if (corners.size() / 3 > static_cast<std::size_t>(std::numeric_limits<int>::max()))
-        fail(path, line, "too many faces");
+      if (static_cast<long long>(corners.size() / 3) > limits.max_faces)
+        fail(path, line, "more than " + std::to_string(limits.max_faces) + " faces (the limit, after splitting polygons "
+                         "into triangles)");
     }
     // Anything else (vt, vn, g, o, s, usemtl, mtllib, l, p, unknown statements) carries nothing the
     // simulator uses and is skipped, as OBJ readers conventionally do.
   }
-  if (in.bad()) {
-    // A directory (EISDIR) or unreadable device opens fine and fails on the first read: report it
-    // like a failed open, since no line was read.
-    if (line == 0) throw InputError(path + ": cannot open: " + std::strerror(errno));
-    fail(path, line + 1, std::string("read error: ") + std::strerror(errno));
-  }
+  if (std::ferror(in)) fail(path, line + 1, std::string("read error: ") + std::strerror(errno));
   // "No faces" belongs to the whole file; report it at the last line (line 1 for an empty file).
   if (corners.empty()) fail(path, std::max(line, 1L), "no faces");
 

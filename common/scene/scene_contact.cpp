@@ -1,6 +1,10 @@
 #include "scene/scene_contact.h"
 
+#include <set>
 #include <string>
+#include <utility>
+
+#include "util/message_text.h"
 
 namespace pd::scene_json {
 
@@ -10,16 +14,22 @@ namespace {
 int object_index(const JsonNode& node, const std::vector<SceneObject>& objects) {
   const std::string name = node.string();
   std::string known;
-  for (std::size_t k = 0; k < objects.size(); ++k) {
+  for (std::size_t k = 0; k < objects.size(); ++k)
     if (objects[k].name == name) return static_cast<int>(k);
-    known += (k ? ", \"" : "\"") + objects[k].name + "\"";
+  for (std::size_t k = 0; k < objects.size(); ++k) {
+    if (k == 8) {
+      known += ", ... (" + std::to_string(objects.size()) + " objects)";
+      break;
+    }
+    known += (k ? ", " : "") + quoted_for_message(objects[k].name, 40);
   }
   node.fail_got("names no object of the scene (objects: " + known + ")");
 }
 
 double friction_coefficient(const JsonNode& node) {
   const double mu = node.number();
-  if (!(mu >= 0.0)) node.fail_got("a friction coefficient must be >= 0");
+  const Range& r = limits::kFriction;
+  if (!(mu >= r.lower && mu <= r.upper)) node.fail_got("a friction coefficient must be from 0 to 10");
   return mu;
 }
 
@@ -30,16 +40,17 @@ ContactConfig read_contact(const JsonNode& node, const std::vector<SceneObject>&
   ContactConfig c;
   // dhat is required: a good value depends on the scene's scale (IPC uses 1e-3 of the bounding box
   // diagonal), and a silent default would be wrong for a 2 cm hat and a 20 m sail alike.
-  c.dhat = node.required("dhat").positive();
-  if (auto v = node.optional("offset")) c.offset = v->at_least(0.0);
+  c.dhat = node.required("dhat").in_range(limits::kDhat);
+  if (auto v = node.optional("offset")) c.offset = v->in_range(limits::kContactOffset);
   if (auto v = node.optional("ccd_ratio")) {
     c.ccd_ratio = v->number();
     if (!(c.ccd_ratio > 0.0 && c.ccd_ratio < 1.0)) v->fail_got("must be > 0 and < 1");
   }
   if (auto v = node.optional("friction")) c.friction = friction_coefficient(*v);
-  if (auto v = node.optional("eps_v")) c.eps_v = v->positive();
-  if (auto v = node.optional("stiffness")) c.stiffness = v->positive();
+  if (auto v = node.optional("eps_v")) c.eps_v = v->in_range(limits::kEpsV);
+  if (auto v = node.optional("stiffness")) c.stiffness = v->in_range(limits::kBarrierStiffness);
   if (auto list = node.optional("pair_friction")) {
+    std::set<std::pair<int, int>> pairs;  // a set, so a long list costs no quadratic search
     for (const JsonNode& entry : list->elements()) {
       entry.expect_keys({"objects", "friction"});
       auto names = entry.required("objects").elements(2);
@@ -48,8 +59,7 @@ ContactConfig read_contact(const JsonNode& node, const std::vector<SceneObject>&
       p.b = object_index(names[1], objects);
       if (p.a > p.b) std::swap(p.a, p.b);
       p.mu = friction_coefficient(entry.required("friction"));
-      for (const auto& q : c.pair_friction)
-        if (q.a == p.a && q.b == p.b) entry.fail("gives the pair of objects a second friction coefficient");
+      if (!pairs.insert({p.a, p.b}).second) entry.fail("gives the pair of objects a second friction coefficient");
       c.pair_friction.push_back(p);
     }
   }
@@ -59,12 +69,8 @@ ContactConfig read_contact(const JsonNode& node, const std::vector<SceneObject>&
 Ground read_ground(const JsonNode& node) {
   node.expect_keys({"height", "normal", "friction"});
   Ground g;
-  if (auto v = node.optional("height")) g.height = v->number();
-  if (auto v = node.optional("normal")) {
-    const Vec3 n = v->vec3();
-    if (!(n.norm() > 0.0)) v->fail_got("must be a non-zero vector");
-    g.normal = n.normalized();
-  }
+  if (auto v = node.optional("height")) g.height = v->in_range(limits::kPosition);
+  if (auto v = node.optional("normal")) g.normal = v->direction();
   if (auto v = node.optional("friction")) g.friction = friction_coefficient(*v);
   return g;
 }

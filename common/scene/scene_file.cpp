@@ -5,7 +5,10 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
+
+#include <sys/stat.h>
 
 #include <Eigen/Geometry>
 
@@ -17,6 +20,7 @@
 #include "scene/scene_hierarchy_config.h"
 #include "scene/scene_json.h"
 #include "util/input_error.h"
+#include "util/message_text.h"
 
 namespace pd {
 namespace {
@@ -24,6 +28,8 @@ namespace {
 namespace fs = std::filesystem;
 using scene_json::Json;
 using scene_json::JsonNode;
+using scene_json::Range;
+namespace limits = scene_json::limits;
 
 constexpr long long kFormatVersion = 1;
 constexpr long long kMaxFrames = 10000000;
@@ -53,10 +59,25 @@ std::string format_vec(const Vec3& v) {
   return "[" + format_number(v.x()) + ", " + format_number(v.y()) + ", " + format_number(v.z()) + "]";
 }
 
-void check_vertex_budget(const JsonNode& node, long long vertices) {
+// The vertices of the objects read before the current one (for the scene-wide limit).
+struct MeshBudget {
+  long long vertices_before = 0;
+};
+
+// Checked with the counts each generator documents, before it allocates anything.
+void check_vertex_budget(const JsonNode& node, long long vertices, long long faces, const MeshBudget& budget) {
   if (vertices > kMaxSceneMeshVertices) {
     node.fail_got("gives " + std::to_string(vertices) + " vertices, more than the limit of " +
                   std::to_string(kMaxSceneMeshVertices) + " per object");
+  }
+  if (budget.vertices_before + vertices > kMaxSceneVertices) {
+    node.fail_got("gives " + std::to_string(vertices) + " vertices, which brings the scene to " +
+                  std::to_string(budget.vertices_before + vertices) + ", more than the limit of " +
+                  std::to_string(kMaxSceneVertices) + " for all objects together");
+  }
+  if (faces > kMaxSceneMeshFaces) {
+    node.fail_got("gives " + std::to_string(faces) + " faces, more than the limit of " +
+                  std::to_string(kMaxSceneMeshFaces) + " per object");
   }
 }
 
@@ -67,10 +88,13 @@ std::string resolve(const std::string& base_dir, const std::string& file) {
 }
 
 TriMesh read_obj_at(const JsonNode& path_node, const std::string& base_dir) {
-  std::string file = path_node.string();
+  std::string file = path_node.string(scene_json::kMaxPathBytes);
   if (file.empty()) path_node.fail_got("must be a path to an OBJ file");
+  ObjLimits obj_limits;
+  obj_limits.max_vertices = kMaxSceneMeshVertices;
+  obj_limits.max_faces = kMaxSceneMeshFaces;
   try {
-    return read_obj(resolve(base_dir, file));
+    return read_obj(resolve(base_dir, file), obj_limits);
   } catch (const InputError& e) {
     path_node.fail(e.what());
   }
@@ -90,7 +114,7 @@ TriMesh generate(const JsonNode& mesh, Make make) {
 
 int as_int(long long v) { return static_cast<int>(v); }
 
-TriMesh read_mesh(const JsonNode& mesh, const std::string& base_dir) {
+TriMesh read_mesh(const JsonNode& mesh, const std::string& base_dir, const MeshBudget& budget) {
   const std::string type = mesh.required("type").choice(
       {"rectangle", "rectangle_equilateral", "icosphere", "box", "cylinder", "cup", "gear", "obj"}, "mesh type");
   if (type == "rectangle") {
@@ -98,7 +122,7 @@ TriMesh read_mesh(const JsonNode& mesh, const std::string& base_dir) {
     auto size = mesh.required("size").elements(2);
     JsonNode cells_node = mesh.required("cells");
     auto cells = cells_node.elements(2);
-    double w = size[0].positive(), h = size[1].positive();
+    double w = size[0].in_range(limits::kLength), h = size[1].in_range(limits::kLength);
     long long nx = cells[0].integer(1, 100000), ny = cells[1].integer(1, 100000);
     GridDiagonals diagonals = GridDiagonals::Checkerboard;
     if (auto d = mesh.optional("diagonals")) {
@@ -106,74 +130,78 @@ TriMesh read_mesh(const JsonNode& mesh, const std::string& base_dir) {
       diagonals = name == "rows" ? GridDiagonals::Rows
                   : name == "uniform" ? GridDiagonals::Uniform : GridDiagonals::Checkerboard;
     }
-    check_vertex_budget(cells_node, (nx + 1) * (ny + 1));
+    check_vertex_budget(cells_node, (nx + 1) * (ny + 1), 2 * nx * ny, budget);
     return generate(mesh, [&] { return make_rectangle(w, h, as_int(nx), as_int(ny), diagonals); });
   }
   if (type == "rectangle_equilateral") {
     mesh.expect_keys({"type", "size", "cells_x"});
     auto size = mesh.required("size").elements(2);
     JsonNode cells_node = mesh.required("cells_x");
-    double w = size[0].positive(), h = size[1].positive();
+    double w = size[0].in_range(limits::kLength), h = size[1].in_range(limits::kLength);
     long long n = cells_node.integer(1, 100000);
     // Row count as make_rectangle_equilateral computes it, to bound the vertex count before building.
     double rows = std::max(1.0, std::round(h / (w / n * std::sqrt(3.0) / 2.0)));
     if (!(rows <= 1e7)) cells_node.fail_got("gives more than 10^7 rows of vertices for this size");
-    check_vertex_budget(cells_node, (static_cast<long long>(rows) + 1) * (n + 2));
+    const auto r = static_cast<long long>(rows);
+    check_vertex_budget(cells_node, (r + 1) * (n + 2), r * (2 * n + 1), budget);
     return generate(mesh, [&] { return make_rectangle_equilateral(w, h, as_int(n)); });
   }
   if (type == "icosphere") {
     mesh.expect_keys({"type", "radius", "subdivisions"});
-    double r = mesh.required("radius").positive();
-    long long s = mesh.required("subdivisions").integer(0, 8);
+    double r = mesh.required("radius").in_range(limits::kLength);
+    JsonNode s_node = mesh.required("subdivisions");
+    long long s = s_node.integer(0, 8);
+    check_vertex_budget(s_node, 10 * (1LL << (2 * s)) + 2, 20 * (1LL << (2 * s)), budget);
     return generate(mesh, [&] { return make_icosphere(r, as_int(s)); });
   }
   if (type == "box") {
     mesh.expect_keys({"type", "size", "cells"});
-    Vec3 size = mesh.required("size").positive_vec3();
+    Vec3 size = mesh.required("size").vec3_in(limits::kLength);
     JsonNode cells_node = mesh.required("cells");
     long long c = cells_node.integer(1, 10000);
-    check_vertex_budget(cells_node, 6 * c * c + 2);
+    check_vertex_budget(cells_node, 6 * c * c + 2, 12 * c * c, budget);
     return generate(mesh, [&] { return make_box(size, as_int(c)); });
   }
   if (type == "cylinder") {
     mesh.expect_keys({"type", "radius", "height", "segments", "rings", "capped"});
-    double r = mesh.required("radius").positive();
-    double h = mesh.required("height").positive();
+    double r = mesh.required("radius").in_range(limits::kLength);
+    double h = mesh.required("height").in_range(limits::kLength);
     long long segments = mesh.required("segments").integer(3, 100000);
     JsonNode rings_node = mesh.required("rings");
     long long rings = rings_node.integer(1, 100000);
     auto capped_node = mesh.optional("capped");
     bool capped = capped_node ? capped_node->boolean() : false;
-    check_vertex_budget(rings_node, segments * (rings + 1) + (capped ? 2 : 0));
+    check_vertex_budget(rings_node, segments * (rings + 1) + (capped ? 2 : 0),
+                        2 * segments * rings + (capped ? 2 * segments : 0), budget);
     return generate(mesh, [&] { return make_cylinder(r, h, as_int(segments), as_int(rings), capped); });
   }
   if (type == "cup") {
     mesh.expect_keys({"type", "radius", "height", "segments", "rings"});
-    double r = mesh.required("radius").positive();
-    double h = mesh.required("height").positive();
+    double r = mesh.required("radius").in_range(limits::kLength);
+    double h = mesh.required("height").in_range(limits::kLength);
     long long segments = mesh.required("segments").integer(3, 100000);
     JsonNode rings_node = mesh.required("rings");
     long long rings = rings_node.integer(1, 100000);
-    check_vertex_budget(rings_node, segments * (rings + 1) + 1);
+    check_vertex_budget(rings_node, segments * (rings + 1) + 1, 2 * segments * rings + segments, budget);
     return generate(mesh, [&] { return make_cup(r, h, as_int(segments), as_int(rings)); });
   }
   if (type == "gear") {
     mesh.expect_keys({"type", "radius", "root_radius", "teeth", "thickness"});
-    double r = mesh.required("radius").positive();
+    double r = mesh.required("radius").in_range(limits::kLength);
     JsonNode root_node = mesh.required("root_radius");
-    double root = root_node.positive();
+    double root = root_node.in_range(limits::kLength);
     // Checked here rather than left to make_gear so the message names the key.
     if (!(root < r)) root_node.fail_got("must be < radius (" + format_number(r) + ")");
     JsonNode teeth_node = mesh.required("teeth");
     long long teeth = teeth_node.integer(3, 100000);
-    double thickness = mesh.required("thickness").positive();
-    check_vertex_budget(teeth_node, 8 * teeth + 2);
+    double thickness = mesh.required("thickness").in_range(limits::kLength);
+    check_vertex_budget(teeth_node, 8 * teeth + 2, 16 * teeth, budget);
     return generate(mesh, [&] { return make_gear(r, root, as_int(teeth), thickness); });
   }
   mesh.expect_keys({"type", "path"});
   JsonNode path = mesh.required("path");
-  TriMesh m = read_obj_at(path, base_dir);
-  check_vertex_budget(path, m.num_vertices());
+  TriMesh m = read_obj_at(path, base_dir);  // read_obj stops at the per-object vertex and face limits
+  check_vertex_budget(path, m.num_vertices(), m.num_faces(), budget);
   return m;
 }
 
@@ -194,16 +222,14 @@ struct Transform {
 Transform read_transform(const JsonNode& node) {
   node.expect_keys({"scale", "rotation", "translation"});
   Transform t;
-  if (auto s = node.optional("scale")) t.scale = s->positive();
+  if (auto s = node.optional("scale")) t.scale = s->in_range(limits::kScale);
   if (auto r = node.optional("rotation")) {
     r->expect_keys({"axis", "angle_deg"});
-    JsonNode axis_node = r->required("axis");
-    Vec3 axis = axis_node.vec3();
-    double angle = r->required("angle_deg").number();
-    if (!(axis.norm() > 0.0)) axis_node.fail_got("must be a non-zero vector");
-    t.rotation = Eigen::AngleAxisd(angle * kPi / 180.0, axis.normalized()).toRotationMatrix();
+    const Vec3 axis = r->required("axis").direction();
+    double angle = r->required("angle_deg").in_range(limits::kAngleDeg);
+    t.rotation = Eigen::AngleAxisd(angle * kPi / 180.0, axis).toRotationMatrix();
   }
-  if (auto tr = node.optional("translation")) t.translation = tr->vec3();
+  if (auto tr = node.optional("translation")) t.translation = tr->vec3_in(limits::kPosition);
   return t;
 }
 
@@ -247,17 +273,17 @@ Material read_material(const JsonNode& node) {
     throw InputError(node.file() + ": " + node.child_path(key) +
                      ": required key is missing (give it, or a \"preset\")");
   };
-  auto positive = [](const JsonNode& v) { return v.positive(); };
+  auto within = [](const Range& range) { return [range](const JsonNode& v) { return v.in_range(range); }; };
   Material m;
-  m.density = core("density", preset ? preset->density : 0.0, positive);
-  m.youngs_modulus = core("youngs_modulus", preset ? preset->youngs_modulus : 0.0, positive);
+  m.density = core("density", preset ? preset->density : 0.0, within(limits::kDensity));
+  m.youngs_modulus = core("youngs_modulus", preset ? preset->youngs_modulus : 0.0, within(limits::kYoungsModulus));
   m.poisson_ratio = core("poisson_ratio", preset ? preset->poisson_ratio : 0.0, [](const JsonNode& v) {
     double nu = v.number();
     if (!(nu >= 0.0 && nu < 0.5)) v.fail_got("must be >= 0 and < 0.5");
     return nu;
   });
-  m.thickness = core("thickness", preset ? preset->thickness : 0.0, positive);
-  if (auto eb = node.optional("bending_youngs_modulus")) m.bending_youngs_modulus = eb->positive();
+  m.thickness = core("thickness", preset ? preset->thickness : 0.0, within(limits::kThickness));
+  if (auto eb = node.optional("bending_youngs_modulus")) m.bending_youngs_modulus = eb->in_range(limits::kBendingModulus);
   return m;
 }
 
@@ -268,16 +294,15 @@ std::vector<Keyframe> read_keyframes(const JsonNode& node) {
     k.expect_keys({"time", "translation", "rotation"});
     Keyframe key;
     JsonNode time = k.required("time");
-    key.time = time.at_least(0.0);
+    key.time = time.in_range(limits::kTime);
     if (!keys.empty() && !(key.time > keys.back().time))
       time.fail_got("must be later than the previous keyframe's time (" + format_number(keys.back().time) + ")");
-    if (auto tr = k.optional("translation")) key.translation = tr->vec3();
+    if (auto tr = k.optional("translation")) key.translation = tr->vec3_in(limits::kPosition);
     if (auto r = k.optional("rotation")) {
       r->expect_keys({"axis", "angle_deg"});
-      JsonNode axis_node = r->required("axis");
-      const Vec3 axis = axis_node.vec3();
-      if (!(axis.norm() > 0.0)) axis_node.fail_got("must be a non-zero vector");
-      key.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(r->required("angle_deg").number() * kPi / 180.0, axis.normalized()));
+      const Vec3 axis = r->required("axis").direction();
+      const double angle = r->required("angle_deg").in_range(limits::kAngleDeg);
+      key.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(angle * kPi / 180.0, axis));
     }
     keys.push_back(key);
   }
@@ -302,12 +327,13 @@ PinScript read_script(const JsonNode& node) {
     s.keyframes = read_keyframes(*k);
     return s;
   }
-  if (auto v = node.optional("velocity")) s.velocity = v->vec3();
-  if (auto w = node.optional("angular_velocity")) s.angular_velocity = w->vec3();
-  if (auto c = node.optional("center")) s.center = c->vec3();
-  if (auto a = node.optional("start")) s.start = a->at_least(0.0);
+  if (auto v = node.optional("velocity")) s.velocity = v->vec3_length_at_most(limits::kMaxSpeed, "m/s");
+  if (auto w = node.optional("angular_velocity"))
+    s.angular_velocity = w->vec3_length_at_most(limits::kMaxAngularSpeed, "rad/s");
+  if (auto c = node.optional("center")) s.center = c->vec3_in(limits::kPosition);
+  if (auto a = node.optional("start")) s.start = a->in_range(limits::kTime);
   if (auto b = node.optional("end")) {
-    s.end = b->number();
+    s.end = b->in_range(limits::kTime);
     if (!(s.end > s.start)) b->fail_got("must be > start (" + format_number(s.start) + ")");
   }
   return s;
@@ -315,8 +341,8 @@ PinScript read_script(const JsonNode& node) {
 
 std::vector<int> select_in_region(const JsonNode& region, const Positions& initial) {
   region.expect_keys({"min", "max"});
-  Vec3 lo = region.required("min").vec3();
-  Vec3 hi = region.required("max").vec3();
+  Vec3 lo = region.required("min").vec3_in(limits::kRegion);
+  Vec3 hi = region.required("max").vec3_in(limits::kRegion);
   if (!(lo.array() <= hi.array()).all()) {
     region.fail("min must be <= max on every axis, got min " + format_vec(lo) + " and max " + format_vec(hi));
   }
@@ -338,7 +364,11 @@ std::vector<PinGroup> read_pins(const JsonNode& node, const Positions& initial, 
   std::vector<PinGroup> groups;
   const int n = static_cast<int>(initial.rows());
   std::vector<int> owner(n, -1);
-  for (const JsonNode& pin : node.elements()) {
+  const std::vector<JsonNode> pins = node.elements();
+  if (static_cast<long long>(pins.size()) > limits::kMaxPinGroups) {
+    node.fail_got("lists more than " + std::to_string(limits::kMaxPinGroups) + " pin groups");
+  }
+  for (const JsonNode& pin : pins) {
     pin.expect_keys({"indices", "region", "script"});
     auto indices = pin.optional("indices");
     auto region = pin.optional("region");
@@ -369,7 +399,10 @@ std::vector<PinGroup> read_pins(const JsonNode& node, const Positions& initial, 
       }
       owner[v] = index;
     }
-    if (auto script = pin.optional("script")) group.script = read_script(*script);
+    if (auto script = pin.optional("script")) {
+      group.script = read_script(*script);
+      scene_json::check_script_speed(*script, *group.script, initial, &group.vertices);
+    }
     groups.push_back(std::move(group));
   }
   return groups;
@@ -380,7 +413,7 @@ Pressure read_pressure(const JsonNode& node, const TriMesh& rest, const Position
   Pressure p;
   std::string model = node.required("model").choice({"constant", "ideal_gas"}, "pressure model");
   p.model = model == "constant" ? Pressure::Model::Constant : Pressure::Model::IdealGas;
-  p.pressure = node.required("pressure").number();
+  p.pressure = node.required("pressure").in_range(limits::kPressure);
   Topology topo = build_topology(rest);
   if (!topo.closed()) {
     int boundary = 0;
@@ -402,30 +435,34 @@ Pressure read_pressure(const JsonNode& node, const TriMesh& rest, const Position
 
 bool valid_name_char(char c) { return static_cast<unsigned char>(c) >= 0x20 && c != '/' && c != 0x7f; }
 
-SceneObject read_object(const JsonNode& node, int index, const std::string& base_dir, bool scene_has_wind) {
+SceneObject read_object(const JsonNode& node, int index, const std::string& base_dir, bool scene_has_wind,
+                        const MeshBudget& budget) {
   node.expect_keys({"name", "mesh", "transform", "initial_positions", "initial_velocity", "material", "pins",
                     "pressure", "wind", "obstacle", "motion", "self_contact", "ground_contact", "strain_limit",
                     "hierarchy"});
   SceneObject obj;
   obj.name = "object_" + std::to_string(index);
   if (auto name = node.optional("name")) {
-    obj.name = name->string();
+    obj.name = name->string(scene_json::kMaxNameBytes);
     if (obj.name.empty() || !std::all_of(obj.name.begin(), obj.name.end(), valid_name_char)) {
       name->fail_got("must be a non-empty name without '/' or control characters");
     }
   }
   JsonNode mesh_node = node.required("mesh");
-  TriMesh mesh = read_mesh(mesh_node, base_dir);
+  TriMesh mesh = read_mesh(mesh_node, base_dir, budget);
   Transform transform;
   if (auto t = node.optional("transform")) transform = read_transform(*t);
   std::optional<Positions> posed;
-  if (auto ip = node.optional("initial_positions")) posed = read_posed(*ip, mesh, mesh_node.path(), base_dir);
+  std::optional<JsonNode> posed_node = node.optional("initial_positions");
+  if (posed_node) posed = read_posed(*posed_node, mesh, mesh_node.path(), base_dir);
 
   transform.apply(mesh.V);
+  scene_json::check_positions(mesh_node, mesh.V, "rest");
   validate_mesh(mesh, node.file() + ": " + mesh_node.path());
   obj.rest = std::move(mesh);
   if (posed) {
     transform.apply(*posed);
+    scene_json::check_positions(posed_node->required("obj"), *posed, "initial");
     obj.initial = std::move(*posed);
   } else {
     obj.initial = obj.rest.V;
@@ -438,7 +475,10 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
                             "strain_limit"})
       if (auto k = node.optional(key)) k->fail("does not apply to an obstacle (\"obstacle\": true)");
     if (auto m = node.optional("material")) obj.material = read_material(*m);
-    if (auto m = node.optional("motion")) obj.motion = read_script(*m);
+    if (auto m = node.optional("motion")) {
+      obj.motion = read_script(*m);
+      scene_json::check_script_speed(*m, *obj.motion, obj.initial, nullptr);
+    }
     // Obstacles never touch the ground: both are fixed, so the barrier between them could only
     // block the obstacle's motion.
     obj.wind = false;
@@ -447,7 +487,8 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
   }
   if (auto m = node.optional("motion"))
     m->fail("applies to obstacles only (to move part of a simulated object, use a pin with a \"script\")");
-  if (auto v = node.optional("initial_velocity")) obj.initial_velocity = v->vec3();
+  if (auto v = node.optional("initial_velocity"))
+    obj.initial_velocity = v->vec3_length_at_most(limits::kMaxSpeed, "m/s");
   obj.material = read_material(node.required("material"));
   if (auto pins = node.optional("pins")) obj.pins = read_pins(*pins, obj.initial, node.path());
   if (auto p = node.optional("pressure")) obj.pressure = read_pressure(*p, obj.rest, obj.initial);
@@ -464,18 +505,24 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
 Wind read_wind(const JsonNode& node) {
   node.expect_keys({"air_velocity", "air_density", "drag_coefficient", "gust_amplitude", "gust_frequency"});
   Wind w;
-  w.air_velocity = node.required("air_velocity").vec3();
-  if (auto v = node.optional("air_density")) w.air_density = v->positive();
-  if (auto v = node.optional("drag_coefficient")) w.drag_coefficient = v->at_least(0.0);
-  if (auto v = node.optional("gust_amplitude")) w.gust_amplitude = v->at_least(0.0);
-  if (auto v = node.optional("gust_frequency")) w.gust_frequency = v->at_least(0.0);
+  w.air_velocity = node.required("air_velocity").vec3_length_at_most(limits::kMaxAirSpeed, "m/s");
+  if (auto v = node.optional("air_density")) w.air_density = v->in_range(limits::kAirDensity);
+  if (auto v = node.optional("drag_coefficient")) w.drag_coefficient = v->in_range(limits::kDragCoefficient);
+  if (auto v = node.optional("gust_amplitude")) w.gust_amplitude = v->in_range(limits::kGustAmplitude);
+  if (auto v = node.optional("gust_frequency")) w.gust_frequency = v->in_range(limits::kGustFrequency);
+  // Gusts swing the speed up to (1 + amplitude) times the mean: the speed limit holds for the peak.
+  const double peak = w.air_velocity.norm() * (1.0 + w.gust_amplitude);
+  if (peak > limits::kMaxAirSpeed) {
+    node.fail("gusts reach " + format_number(peak) + " m/s (|air_velocity| x (1 + gust_amplitude)), more than the "
+              "limit of " + format_number(limits::kMaxAirSpeed) + " m/s");
+  }
   return w;
 }
 
 SolverSettings read_solver(const JsonNode& node) {
   node.expect_keys({"tolerance", "max_newton_iterations", "hessian_projection"});
   SolverSettings s;
-  if (auto v = node.optional("tolerance")) s.tolerance = v->positive();
+  if (auto v = node.optional("tolerance")) s.tolerance = v->in_range(limits::kTolerance);
   if (auto v = node.optional("max_newton_iterations")) s.max_newton_iterations = as_int(v->integer(1, 1000000));
   if (auto v = node.optional("hessian_projection")) {
     parse_hessian_projection(v->choice({"none", "clamp", "abs"}, "Hessian projection"), s.projection);
@@ -528,13 +575,17 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
   scene.name = fs::path(path_for_messages).stem().string();
   if (scene.name.empty()) scene.name = "scene";
   if (auto name = root.optional("name")) {
-    scene.name = name->string();
+    scene.name = name->string(scene_json::kMaxNameBytes);
     if (scene.name.empty()) name->fail_got("must be a non-empty string");
+    if (!std::all_of(scene.name.begin(), scene.name.end(), [](char c) {
+          return static_cast<unsigned char>(c) >= 0x20 && c != 0x7f;
+        }))
+      name->fail_got("must not contain control characters");
   }
   if (auto d = root.optional("description")) d->string();
-  scene.time_step = root.required("time_step").positive();
+  scene.time_step = root.required("time_step").in_range(limits::kTimeStep);
   scene.frames = as_int(root.required("frames").integer(1, kMaxFrames));
-  if (auto g = root.optional("gravity")) scene.gravity = g->vec3();
+  if (auto g = root.optional("gravity")) scene.gravity = g->vec3_in(limits::kGravity);
   if (auto s = root.optional("solver")) scene.solver = read_solver(*s);
   if (auto w = root.optional("wind")) scene.wind = read_wind(*w);
   if (auto m = root.optional("mode")) scene.progressive = m->choice({"direct", "progressive"}, "mode") == "progressive";
@@ -542,14 +593,18 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
   JsonNode objects = root.required("objects");
   std::vector<JsonNode> list = objects.elements();
   if (list.empty()) objects.fail_got("must list at least one object");
+  if (static_cast<long long>(list.size()) > limits::kMaxObjects)
+    objects.fail_got("lists more than " + std::to_string(limits::kMaxObjects) + " objects");
+  std::map<std::string, std::size_t> names;  // name -> index, so 1000 objects cost no 10^6 comparisons
+  MeshBudget budget;
   for (std::size_t i = 0; i < list.size(); ++i) {
-    SceneObject obj = read_object(list[i], static_cast<int>(i), base_dir, scene.wind.has_value());
-    for (std::size_t k = 0; k < scene.objects.size(); ++k) {
-      if (scene.objects[k].name == obj.name) {
-        JsonNode where = list[i].has("name") ? list[i].required("name") : list[i];
-        where.fail("duplicate object name \"" + obj.name + "\", also used by " + list[k].path());
-      }
+    SceneObject obj = read_object(list[i], static_cast<int>(i), base_dir, scene.wind.has_value(), budget);
+    auto [it, added] = names.emplace(obj.name, i);
+    if (!added) {
+      JsonNode where = list[i].has("name") ? list[i].required("name") : list[i];
+      where.fail("duplicate object name " + quoted_for_message(obj.name) + ", also used by " + list[it->second].path());
     }
+    budget.vertices_before += obj.rest.num_vertices();
     scene.objects.push_back(std::move(obj));
   }
   read_contact_sections(root, list, scene);
@@ -558,8 +613,17 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
 }
 
 Scene load_scene(const std::string& path) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) throw InputError(path + ": is a directory, not a scene file");
+  // stat first: opening a FIFO or a device would block or read forever, and the size limit is
+  // checked before anything is read.
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0) {
+    if (S_ISDIR(st.st_mode)) throw InputError(path + ": is a directory, not a scene file");
+    if (!S_ISREG(st.st_mode)) throw InputError(path + ": is not a regular file (a FIFO, socket or device), not a scene file");
+    if (static_cast<std::uintmax_t>(st.st_size) > scene_json::kMaxDocumentBytes) {
+      throw InputError(path + ": the scene file has " + std::to_string(st.st_size) + " bytes, more than the limit of " +
+                       std::to_string(scene_json::kMaxDocumentBytes) + " (16 MiB)");
+    }
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open scene file");
   std::ostringstream text;

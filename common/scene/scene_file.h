@@ -27,5 +27,10 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
 // Upper bound on the vertex count of any one object's mesh; larger requests are reported as errors
 // before any memory is allocated (a typo such as "cells": [2000, 2000] would otherwise exhaust memory).
 constexpr long long kMaxSceneMeshVertices = 2000000;
+// The same for faces (a closed mesh has about 2 faces per vertex).
+constexpr long long kMaxSceneMeshFaces = 4000000;
+// Upper bound on the vertices of all objects together: the solver's memory grows with the total
+// (about 1 KB per vertex of Hessian and factor, more with contact), so 4 000 000 is a few GB.
+constexpr long long kMaxSceneVertices = 4000000;
 
 }  // namespace pd

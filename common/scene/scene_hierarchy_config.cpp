@@ -28,6 +28,8 @@ HierarchyConfig read_hierarchy(const JsonNode& node) {
   if (auto v = node.optional("ratio")) {
     c.ratio = v->number();
     if (!(c.ratio > 1.0)) v->fail_got("must be > 1 (vertex-count ratio between neighbouring levels)");
+    // Above 1000 even a 2 000 000-vertex mesh has fewer than 3 vertices on its second level.
+    if (!(c.ratio <= limits::kHierarchyRatio.upper)) v->fail_got("must be <= 1000");
   }
   return c;
 }

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <sstream>
 #include <utility>
 
+#include "scene/scene.h"
 #include "util/input_error.h"
+#include "util/message_text.h"
 
 namespace pd::scene_json {
 namespace {
@@ -41,7 +44,7 @@ std::string path_of(const std::vector<OpenValue>& stack) {
       path += "[" + std::to_string(v.index) + "]";
     } else {
       if (!path.empty()) path += ".";
-      path += v.key;
+      path += key_for_path(v.key);
     }
   }
   return path;
@@ -87,7 +90,58 @@ std::string location(const std::string& file, const std::string& text, std::size
   return file + ":" + std::to_string(lc.line) + ":" + std::to_string(lc.column);
 }
 
+// Short form of a limit for messages: 1e-06, 1000, 1e+07.
+std::string format_limit(double x) {
+  std::ostringstream out;
+  out.precision(6);
+  out << x;
+  return out.str();
+}
+
+std::string with_unit(double x, const char* unit) {
+  return format_limit(x) + (unit[0] != '\0' ? std::string(" ") + unit : std::string());
+}
+
+// One linear pass over the text, before any tree is built: document size, nesting depth and string
+// lengths. Strings are skipped (a '[' inside one is text), escapes included, so the scan agrees
+// with the parser on well-formed input; malformed input is left to the parser's own messages.
+void check_document_limits(const std::string& text, const std::string& file) {
+  if (text.size() > kMaxDocumentBytes) {
+    throw InputError(file + ": the scene file has " + std::to_string(text.size()) +
+                     " bytes, more than the limit of " + std::to_string(kMaxDocumentBytes) + " (16 MiB)");
+  }
+  int depth = 0;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '"') {
+      const std::size_t start = i++;
+      while (i < text.size() && text[i] != '"') i += text[i] == '\\' ? 2 : 1;
+      const std::size_t length = std::min(i, text.size()) - start - 1;
+      if (length > kMaxStringBytes) {
+        throw InputError(location(file, text, start) + ": string of " + std::to_string(length) +
+                         " bytes is longer than the limit of " + std::to_string(kMaxStringBytes));
+      }
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxNestingDepth) {
+        throw InputError(location(file, text, i) + ": arrays and objects nested deeper than " +
+                         std::to_string(kMaxNestingDepth) + " levels (a scene needs about 8)");
+      }
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;  // (an unmatched one is a syntax error the parser reports)
+    }
+  }
+}
+
 }  // namespace
+
+std::string key_for_path(const std::string& key) {
+  const bool plain = !key.empty() && key.size() <= kMessageTextMaxChars &&
+                     std::all_of(key.begin(), key.end(), [](char c) {
+                       const auto b = static_cast<unsigned char>(c);
+                       return b >= 0x20 && b < 0x7f && c != '"';
+                     });
+  return plain ? key : quoted_for_message(key);
+}
 
 LineColumn line_column(const std::string& text, std::size_t offset) {
   offset = std::min(offset, text.size());
@@ -104,6 +158,7 @@ LineColumn line_column(const std::string& text, std::size_t offset) {
 }
 
 Json parse_json_text(const std::string& text, const std::string& file) {
+  check_document_limits(text, file);
   std::vector<OpenValue> stack;
   Json::parser_callback_t track = [&](int, Json::parse_event_t event, Json& parsed) {
     switch (event) {
@@ -178,6 +233,10 @@ std::string nearest_key(const std::string& key, const std::vector<std::string>& 
   std::string best;
   int best_distance = 3;
   for (const std::string& candidate : candidates) {
+    // Lengths differing by more than 2 cannot be within 2 edits; skipping them keeps a 60 000-character
+    // key from costing a 60 000-row table per candidate.
+    const std::size_t longer = std::max(key.size(), candidate.size());
+    if (longer - std::min(key.size(), candidate.size()) > 2) continue;
     int distance = edit_distance(key, candidate);
     if (distance < best_distance) {
       best_distance = distance;
@@ -189,6 +248,7 @@ std::string nearest_key(const std::string& key, const std::vector<std::string>& 
 
 std::string describe(const Json& value) {
   if (value.is_number_float() && !std::isfinite(value.get<double>())) return "a non-finite number";
+  if (value.is_string()) return quoted_for_message(value.get_ref<const std::string&>(), 57);
   std::string text = value.dump(-1, ' ', false, Json::error_handler_t::replace);
   if (text.size() <= 60) return text;
   if (value.is_object()) return "an object with " + std::to_string(value.size()) + " keys";
@@ -206,7 +266,8 @@ void JsonNode::fail(const std::string& problem) const {
 void JsonNode::fail_got(const std::string& problem) const { fail(problem + ", got " + describe(*value_)); }
 
 std::string JsonNode::child_path(const std::string& key) const {
-  return path_.empty() ? key : path_ + "." + key;
+  const std::string shown = key_for_path(key);
+  return path_.empty() ? shown : path_ + "." + shown;
 }
 
 void JsonNode::expect_keys(std::initializer_list<const char*> allowed) const {
@@ -273,6 +334,14 @@ double JsonNode::at_least(double lower) const {
   return v;
 }
 
+double JsonNode::in_range(const Range& range) const {
+  double v = number();
+  if (!(v >= range.lower && v <= range.upper)) {
+    fail_got("must be from " + format_limit(range.lower) + " to " + with_unit(range.upper, range.unit));
+  }
+  return v;
+}
+
 long long JsonNode::integer(long long lower, long long upper) const {
   const std::string range = "must be an integer from " + std::to_string(lower) + " to " + std::to_string(upper);
   if (value_->is_number_unsigned()) {
@@ -300,9 +369,14 @@ bool JsonNode::boolean() const {
   return value_->get<bool>();
 }
 
-std::string JsonNode::string() const {
+std::string JsonNode::string(std::size_t max_bytes) const {
   if (!value_->is_string()) fail_got("must be a string");
-  return value_->get<std::string>();
+  const std::string& v = value_->get_ref<const std::string&>();
+  if (v.find('\0') != std::string::npos) fail_got("must not contain a NUL character (\\u0000)");
+  if (v.size() > max_bytes) {
+    fail_got("is " + std::to_string(v.size()) + " bytes long, more than the limit of " + std::to_string(max_bytes));
+  }
+  return v;
 }
 
 std::string JsonNode::choice(std::initializer_list<const char*> allowed, const char* what) const {
@@ -319,13 +393,109 @@ std::string JsonNode::choice(std::initializer_list<const char*> allowed, const c
 Vec3 JsonNode::vec3() const {
   if (!value_->is_array() || value_->size() != 3) fail_got("must be an array of 3 numbers [x, y, z]");
   std::vector<JsonNode> e = elements();
-  return Vec3(e[0].number(), e[1].number(), e[2].number());
+  // One statement per element: the order of a constructor's argument evaluation is unspecified, and
+  // the first bad element is the one to report.
+  const double x = e[0].number(), y = e[1].number(), z = e[2].number();
+  return Vec3(x, y, z);
+}
+
+Vec3 JsonNode::vec3_in(const Range& range) const {
+  if (!value_->is_array() || value_->size() != 3) fail_got("must be an array of 3 numbers [x, y, z]");
+  std::vector<JsonNode> e = elements();
+  const double x = e[0].in_range(range), y = e[1].in_range(range), z = e[2].in_range(range);
+  return Vec3(x, y, z);
+}
+
+Vec3 JsonNode::vec3_length_at_most(double max_length, const char* unit) const {
+  // Components bounded first, so the length itself cannot overflow to infinity.
+  const Vec3 v = vec3_in(Range{-max_length, max_length, unit});
+  if (!(v.norm() <= max_length)) fail_got("must have a length of at most " + with_unit(max_length, unit));
+  return v;
+}
+
+Vec3 JsonNode::direction() const {
+  const Vec3 v = vec3_in(Range{-1e6, 1e6, ""});
+  if (!(v.norm() >= 1e-6)) fail_got("must be a non-zero vector (length >= 1e-06)");
+  return v.normalized();
 }
 
 Vec3 JsonNode::positive_vec3() const {
   if (!value_->is_array() || value_->size() != 3) fail_got("must be an array of 3 positive numbers [x, y, z]");
   std::vector<JsonNode> e = elements();
-  return Vec3(e[0].positive(), e[1].positive(), e[2].positive());
+  const double x = e[0].positive(), y = e[1].positive(), z = e[2].positive();
+  return Vec3(x, y, z);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Magnitude checks that need more than one value
+
+namespace {
+
+std::string format_point(const Vec3& v) {
+  return "[" + format_limit(v.x()) + ", " + format_limit(v.y()) + ", " + format_limit(v.z()) + "]";
+}
+
+// Largest speed, m/s, that `s` gives any vertex whose initial position is a row of `initial` listed
+// in `vertices` (all rows when null); see check_script_speed in the header for the formulas.
+double script_max_speed(const PinScript& s, const Positions& initial, const std::vector<int>* vertices) {
+  const Eigen::Index n = vertices ? static_cast<Eigen::Index>(vertices->size()) : initial.rows();
+  auto point = [&](Eigen::Index k) -> Vec3 {
+    return initial.row(vertices ? (*vertices)[static_cast<std::size_t>(k)] : k).transpose();
+  };
+  double fastest = 0.0;
+  if (s.keyframes.empty()) {
+    for (Eigen::Index k = 0; k < n; ++k)
+      fastest = std::max(fastest, (s.velocity + s.angular_velocity.cross(point(k) - s.center)).norm());
+    return fastest;
+  }
+  double reach = 0.0;  // max |X|, m
+  for (Eigen::Index k = 0; k < n; ++k) reach = std::max(reach, point(k).norm());
+  for (std::size_t k = 1; k < s.keyframes.size(); ++k) {
+    const Keyframe& a = s.keyframes[k - 1];
+    const Keyframe& b = s.keyframes[k];
+    const double theta = a.rotation.angularDistance(b.rotation);
+    fastest = std::max(fastest, ((b.translation - a.translation).norm() + theta * reach) / (b.time - a.time));
+  }
+  return fastest;
+}
+
+// Keyframes whose rotation turns faster than the angular-speed limit (spin scripts are bounded by
+// their angular_velocity key already).
+void check_keyframe_spin(const JsonNode& node, const PinScript& s) {
+  for (std::size_t k = 1; k < s.keyframes.size(); ++k) {
+    const Keyframe& a = s.keyframes[k - 1];
+    const Keyframe& b = s.keyframes[k];
+    const double rate = a.rotation.angularDistance(b.rotation) / (b.time - a.time);
+    if (rate > limits::kMaxAngularSpeed) {
+      node.fail("turns at " + format_limit(rate) + " rad/s between the keyframes at t = " + format_limit(a.time) +
+                " and " + format_limit(b.time) + " s, more than the limit of " +
+                format_limit(limits::kMaxAngularSpeed) + " rad/s");
+    }
+  }
+}
+
+}  // namespace
+
+void check_script_speed(const JsonNode& node, const PinScript& s, const Positions& initial,
+                        const std::vector<int>* vertices) {
+  if (!s.keyframes.empty()) check_keyframe_spin(node, s);
+  const double speed = script_max_speed(s, initial, vertices);
+  if (!(speed <= limits::kMaxSpeed)) {
+    node.fail("moves vertices at up to " + format_limit(speed) + " m/s, more than the limit of " +
+              format_limit(limits::kMaxSpeed) + " m/s (velocity plus angular_velocity times the distance from "
+              "center, or the keyframes' translation and rotation over their time steps)");
+  }
+}
+
+// Every coordinate of `V` inside limits::kPosition (after the transform).
+void check_positions(const JsonNode& node, const Positions& V, const char* what) {
+  const Range& r = limits::kPosition;
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    if ((V.row(i).array() >= r.lower).all() && (V.row(i).array() <= r.upper).all()) continue;
+    node.fail(std::string(what) + " vertex " + std::to_string(i) + " is at " + format_point(V.row(i).transpose()) +
+              " m after the transform, outside the " + format_limit(r.lower) + " to " + format_limit(r.upper) +
+              " m the simulator accepts on each axis");
+  }
 }
 
 }  // namespace pd::scene_json

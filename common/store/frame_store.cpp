@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "geometry/obj_io.h"
+#include "store/frame_file_check.h"
 #include "store/h5_util.h"
 
 namespace pd {
@@ -77,11 +78,6 @@ std::vector<std::string> stat_names_of(const File& f, int level) {
   return out;
 }
 
-// The counts of one level that opening a file finds (and checks the datasets' shapes against).
-struct LevelCounts {
-  int num_vertices = 0, num_faces = 0, num_objects = 0;
-};
-
 // File access for writers: every object in the oldest format that can hold it, at most HDF5 1.8's, so
 // the superblock stays version 0 (what H5P_DEFAULT gives today; pinned so that it stays so). A version
 // 3 superblock (libver "latest", which SWMR needs) marks the file "open for write" in the file itself;
@@ -118,6 +114,7 @@ void check_closed_cleanly(const File& f) {
 std::vector<LevelCounts> open_frame_file(File& f, bool write, int* format_version, int* num_frames) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(f.path, ec)) f.fail("", "no such file");
+  check_global_heaps(f);  // before HDF5 parses anything (see frame_file_check.h)
   htri_t is_hdf5 = H5Fis_hdf5(f.path.c_str());
   if (is_hdf5 == 0) f.fail("", "not an HDF5 file");
   if (is_hdf5 < 0) f.fail_h5("", "cannot read the file");
@@ -131,38 +128,8 @@ std::vector<LevelCounts> open_frame_file(File& f, bool write, int* format_versio
     f.id = f.checked(H5Fopen(f.path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "",
                      "cannot open the HDF5 file (truncated, or locked by a writer?)");
   }
-  Handle version = f.checked(H5Aopen(f.id.get(), "format_version", H5P_DEFAULT), H5Aclose, "/@format_version",
-                             "missing attribute, not a frame file");
-  f.check(H5Aread(version.get(), H5T_NATIVE_INT, format_version), "/@format_version", "read failed");
-  if (*format_version != kFrameFormatVersion)
-    f.fail("/@format_version", "format_version " + std::to_string(*format_version) + " unsupported (expected " +
-                                   std::to_string(kFrameFormatVersion) + ")");
-  Handle scene = f.checked(H5Aopen(f.id.get(), "scene", H5P_DEFAULT), H5Aclose, "/@scene", "missing attribute");
-  f.read_strings(scene.get(), true, "/@scene", 1);  // checks that it is a string
-  Handle levels = f.checked(H5Gopen2(f.id.get(), "/levels", H5P_DEFAULT), H5Gclose, "/levels", "missing group");
-  H5G_info_t info;
-  f.check(H5Gget_info(levels.get(), &info), "/levels", "cannot list group");
-  if (info.nlinks == 0) f.fail("/levels", "the file has no levels");
-  std::vector<LevelCounts> out;
-  for (int l = 0; l < static_cast<int>(info.nlinks); ++l) {
-    Shape d;
-    LevelCounts lv;
-    f.open(level_name("/hierarchy", l, "rest_positions"), H5T_FLOAT, {-1, 3}, &d);
-    lv.num_vertices = static_cast<int>(d[0]);
-    f.open(level_name("/hierarchy", l, "faces"), H5T_INTEGER, {-1, 3}, &d);
-    lv.num_faces = static_cast<int>(d[0]);
-    f.open(level_name("/hierarchy", l, "object_offsets"), H5T_INTEGER, {-1}, &d);
-    if (d[0] < 2) f.fail(level_name("/hierarchy", l, "object_offsets"), "needs at least 2 entries");
-    lv.num_objects = static_cast<int>(d[0]) - 1;
-    const long long n = lv.num_vertices, k = lv.num_objects;
-    f.open(level_name("/hierarchy", l, "object_names"), H5T_STRING, {k});
-    f.open(level_name("/levels", l, "done"), H5T_INTEGER, {l == 0 ? -1 : *num_frames}, &d);
-    if (l == 0) *num_frames = static_cast<int>(d[0]);
-    f.open(level_name("/levels", l, "positions"), H5T_FLOAT, {*num_frames, n, 3});
-    f.open(level_name("/levels", l, "stats/center_of_mass"), H5T_FLOAT, {*num_frames, k, 3});
-    out.push_back(lv);
-  }
-  return out;
+  *format_version = kFrameFormatVersion;  // check_frame_file refuses any other
+  return check_frame_file(f, num_frames);
 }
 
 }  // namespace
@@ -457,12 +424,19 @@ struct FrameReader::Impl {
     const std::string what = "frame " + std::to_string(t) + " of level " + std::to_string(l);
     if (t < 0 || t >= num_frames)
       file.fail(level_name("/levels", l, "positions"), what + " out of range [0, " + std::to_string(num_frames) + ")");
-    if (done(l)[t] != 1) file.fail(level_name("/levels", l, "positions"), what + " is not done");
+    // One flag, not the whole dataset: reading every done frame stays linear in the frame count.
+    const std::string dp = level_name("/levels", l, "done");
+    Handle d = file.open(dp, H5T_INTEGER, {num_frames}, nullptr, 1);
+    uint8_t flag = 0;
+    file.io(false, d.get(), dp, H5T_NATIVE_UINT8, {static_cast<hsize_t>(t)}, {1}, &flag);
+    if (flag != 1) file.fail(level_name("/levels", l, "positions"), what + " is not done");
     return lv;
   }
-  // Reads the (rows, 3) block of frame t from a (num_frames, rows, 3) dataset.
-  void read_frame_block(const std::string& name, int t, long long rows, double* out) const {
+  // Reads the (rows, 3) block of frame t from a (num_frames, rows, 3) dataset; if need_stored, the
+  // block must have been written (see check_frame_stored).
+  void read_frame_block(const std::string& name, int l, int t, long long rows, double* out, bool need_stored) const {
     Handle d = file.open(name, H5T_FLOAT, {num_frames, rows, 3});
+    if (need_stored) check_frame_stored(file, d.get(), name, l, t);
     file.io(false, d.get(), name, H5T_NATIVE_DOUBLE, {static_cast<hsize_t>(t), 0, 0},
             {1, static_cast<hsize_t>(rows), 3}, out);
   }
@@ -488,7 +462,7 @@ int FrameReader::num_objects(int level) const { return impl_->level(level).num_o
 std::string FrameReader::scene_json() const {
   const File& f = impl_->file;
   Handle a = f.checked(H5Aopen(f.id.get(), "scene", H5P_DEFAULT), H5Aclose, "/@scene", "missing attribute");
-  return impl_->file.read_strings(a.get(), true, "/@scene", 1).front();
+  return impl_->file.read_strings(a.get(), true, "/@scene", 1, kMaxSceneTextBytes).front();
 }
 
 Positions FrameReader::rest_positions(int level) const {
@@ -533,13 +507,22 @@ std::vector<uint8_t> FrameReader::done(int level) const {
 
 Positions FrameReader::frame(int level, int t) const {
   Positions X(impl_->check_done(level, t).num_vertices, 3);
-  impl_->read_frame_block(level_name("/levels", level, "positions"), t, X.rows(), X.data());
+  const std::string name = level_name("/levels", level, "positions");
+  impl_->read_frame_block(name, level, t, X.rows(), X.data(), true);
+  check_finite(impl_->file, name, X.data(), static_cast<size_t>(X.size()), 3,
+               "frame " + std::to_string(t) + " of level " + std::to_string(level) + ": vertex");
   return X;
 }
 
 ObjectPoints FrameReader::center_of_mass(int level, int t) const {
   ObjectPoints C(impl_->check_done(level, t).num_objects, 3);
-  impl_->read_frame_block(level_name("/levels", level, "stats/center_of_mass"), t, C.rows(), C.data());
+  const std::string name = level_name("/levels", level, "stats/center_of_mass");
+  impl_->read_frame_block(name, level, t, C.rows(), C.data(), false);
+  // NaN means "not computed" (docs/frame-format.md); an infinite centre is corrupt.
+  for (Eigen::Index i = 0; i < C.size(); ++i)
+    if (std::isinf(C.data()[i]))
+      impl_->file.fail(name, "frame " + std::to_string(t) + " of level " + std::to_string(level) + ": object " +
+                                 std::to_string(i / 3) + " is not finite (inf)");
   return C;
 }
 

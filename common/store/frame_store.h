@@ -131,8 +131,10 @@ class FrameWriter {
 // when the file is opened.
 class FrameReader {
  public:
-  // Throws InputError "<path>: ..." if the file is missing, not HDF5, truncated, locked by a writer,
-  // has another format_version, or lacks a dataset or has one of the wrong shape.
+  // Throws InputError "<path>: <object>: ..." if the file is missing, not HDF5, truncated, locked by a
+  // writer, has another format_version, or fails any check of store/frame_file_check.h (a dataset
+  // missing or of the wrong shape or type, an index or flag out of range, a non-finite rest position,
+  // done frames that were never written, a count above the limits of docs/frame-format.md).
   explicit FrameReader(const std::string& path);
   FrameReader(FrameReader&&) noexcept;
   FrameReader& operator=(FrameReader&&) noexcept;
@@ -155,9 +157,11 @@ class FrameReader {
   std::vector<std::string> object_names(int level) const;
   std::vector<uint8_t> done(int level) const;  // num_frames() entries, 1 where stored
 
-  // Positions of frame t; throws InputError when t is outside [0, num_frames()) or not done.
+  // Positions of frame t; throws InputError when t is outside [0, num_frames()), not done, its data
+  // was never written, or a coordinate is not finite ("frame 7 of level 0: vertex 12 is not finite").
   Positions frame(int level, int t) const;
-  // Centre of mass per object at frame t (NaN rows if not recorded); same checks as frame().
+  // Centre of mass per object at frame t (NaN rows if not recorded); the range and done checks of
+  // frame(), and InputError for an infinite entry.
   ObjectPoints center_of_mass(int level, int t) const;
 
   // Names of the scalar statistics of `level`, sorted (center_of_mass is not among them).

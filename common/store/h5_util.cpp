@@ -5,6 +5,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <limits>
 
 namespace pd::h5 {
 
@@ -115,14 +116,45 @@ void File::write_whole(const std::string& name, hid_t file_type, hid_t mem_type,
   io(true, d.get(), name, mem_type, Shape(dims.size(), 0), dims, const_cast<void*>(data));
 }
 
-Handle File::open(const std::string& name, H5T_class_t cls, const std::vector<long long>& shape, Shape* dims) const {
+namespace {
+std::string type_label(hid_t type) {
+  const H5T_class_t cls = H5Tget_class(type);
+  const std::string bits = std::to_string(8 * H5Tget_size(type));
+  if (cls == H5T_FLOAT) return "float" + bits;
+  if (cls == H5T_INTEGER) return (H5Tget_sign(type) == H5T_SGN_NONE ? "uint" : "int") + bits;
+  if (cls == H5T_STRING) return "string";
+  return "an HDF5 type of class " + std::to_string(static_cast<int>(cls));
+}
+std::string class_label(H5T_class_t cls, size_t size) {
+  const std::string bits = size ? std::to_string(8 * size) : "";
+  if (cls == H5T_FLOAT) return "float" + (bits.empty() ? "64" : bits);
+  if (cls == H5T_INTEGER) return bits.empty() ? "an integer" : (size == 1 ? "uint8" : "int" + bits);
+  if (cls == H5T_STRING) return "strings";
+  return "class " + std::to_string(static_cast<int>(cls));
+}
+}  // namespace
+
+Handle File::open(const std::string& name, H5T_class_t cls, const std::vector<long long>& shape, Shape* dims,
+                  size_t elem_size) const {
   Handle d = checked(H5Dopen2(id.get(), name.c_str(), H5P_DEFAULT), H5Dclose, name, "missing dataset");
-  Handle type(H5Dget_type(d.get()), H5Tclose);
-  if (H5Tget_class(type.get()) != cls) fail(name, "dataset has the wrong element type");
-  Handle space(H5Dget_space(d.get()), H5Sclose);
+  Handle type = checked(H5Dget_type(d.get()), H5Tclose, name, "cannot get the element type");
+  if (elem_size == 0 && cls == H5T_FLOAT) elem_size = 8;
+  if (H5Tget_class(type.get()) != cls || (elem_size != 0 && H5Tget_size(type.get()) != elem_size))
+    fail(name, "element type " + type_label(type.get()) + ", expected " + class_label(cls, elem_size));
+  // Virtual datasets and external storage read other files, which a hostile file could point at a
+  // FIFO or a device (a read that never ends): only data inside the file is read.
+  Handle dcpl = checked(H5Dget_create_plist(d.get()), H5Pclose, name, "cannot get the dataset's properties");
+  const H5D_layout_t layout = H5Pget_layout(dcpl.get());
+  if (layout != H5D_CHUNKED && layout != H5D_CONTIGUOUS && layout != H5D_COMPACT)
+    fail(name, "unsupported storage layout (only chunked, contiguous or compact data in the file itself)");
+  if (H5Pget_external_count(dcpl.get()) != 0) fail(name, "data in external files are not read");
+  Handle space = checked(H5Dget_space(d.get()), H5Sclose, name, "cannot get dataspace");
+  if (H5Sget_simple_extent_type(space.get()) != H5S_SIMPLE)
+    fail(name, "not an array (scalar or empty dataspace), expected shape " + join(shape));
   int rank = H5Sget_simple_extent_ndims(space.get());
-  Shape got(rank > 0 ? rank : 0);
-  if (rank > 0) H5Sget_simple_extent_dims(space.get(), got.data(), nullptr);
+  if (rank < 0) fail_h5(name, "cannot get the shape");
+  Shape got(static_cast<size_t>(rank));
+  if (rank > 0 && H5Sget_simple_extent_dims(space.get(), got.data(), nullptr) < 0) fail_h5(name, "cannot get the shape");
   std::vector<long long> got_ll(got.begin(), got.end());
   bool ok = got.size() == shape.size();
   for (size_t i = 0; ok && i < got.size(); ++i) ok = shape[i] < 0 || got_ll[i] == shape[i];
@@ -131,26 +163,58 @@ Handle File::open(const std::string& name, H5T_class_t cls, const std::vector<lo
   return d;
 }
 
+void File::require_stored(hid_t dset, const std::string& name, const Shape& dims) const {
+  Handle type = checked(H5Dget_type(dset), H5Tclose, name, "cannot get the element type");
+  if (H5Tget_class(type.get()) == H5T_STRING) return;
+  const unsigned long long limit = std::numeric_limits<unsigned long long>::max();
+  unsigned long long need = H5Tget_size(type.get());
+  for (hsize_t d : dims) need = d != 0 && need > limit / d ? limit : need * d;
+  Handle dcpl = checked(H5Dget_create_plist(dset), H5Pclose, name, "cannot get the dataset's properties");
+  const bool filtered = H5Pget_nfilters(dcpl.get()) > 0;
+  const unsigned long long stored = H5Dget_storage_size(dset);
+  if (filtered ? need > kMaxFilteredBytes : need > stored)
+    fail(name, "the shape needs " + std::to_string(need) + " bytes of data but the file stores " +
+                   std::to_string(stored) + (filtered ? " (compressed; at most " + std::to_string(kMaxFilteredBytes) +
+                                                           " bytes are read)"
+                                                     : ""));
+}
+
 void File::read_into(const std::string& name, hid_t mem_type, H5T_class_t cls, const std::vector<long long>& shape,
-                     void* out) const {
+                     void* out, size_t elem_size) const {
   Shape dims;
-  Handle d = open(name, cls, shape, &dims);
+  Handle d = open(name, cls, shape, &dims, elem_size);
+  require_stored(d.get(), name, dims);
   io(false, d.get(), name, mem_type, Shape(dims.size(), 0), dims, out);
 }
 
-std::vector<std::string> File::read_strings(hid_t obj, bool attr, const std::string& name, hsize_t count) const {
+std::vector<std::string> File::read_strings(hid_t obj, bool attr, const std::string& name, hsize_t count,
+                                            size_t max_bytes) const {
   Handle type(attr ? H5Aget_type(obj) : H5Dget_type(obj), H5Tclose);
   if (H5Tget_class(type.get()) != H5T_STRING || H5Tis_variable_str(type.get()) <= 0)
     fail(name, "expected variable-length strings");
+  // The element count must be `count`: H5Aread / H5Dread fill as many pointers as the object holds.
+  Handle space(attr ? H5Aget_space(obj) : H5Dget_space(obj), H5Sclose);
+  const hssize_t n = H5Sget_simple_extent_npoints(space.get());
+  if (n < 0) fail_h5(name, "cannot get dataspace");
+  if (static_cast<hsize_t>(n) != count)
+    fail(name, "holds " + std::to_string(n) + " strings, expected " + std::to_string(count));
   Handle mem = vlen_string_type();
   std::vector<char*> raw(count, nullptr);
-  check(attr ? H5Aread(obj, mem.get(), raw.data()) : H5Dread(obj, mem.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, raw.data()),
-        name, "read failed");
+  const herr_t status =
+      attr ? H5Aread(obj, mem.get(), raw.data()) : H5Dread(obj, mem.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, raw.data());
   std::vector<std::string> out;
-  for (char* s : raw) {
-    out.emplace_back(s ? s : "");
-    H5free_memory(s);
+  size_t too_long = count;  // index of the first string over max_bytes
+  for (size_t i = 0; i < raw.size(); ++i) {
+    if (status >= 0) {
+      out.emplace_back(raw[i] ? raw[i] : "");
+      if (too_long == count && out.back().size() > max_bytes) too_long = i;
+    }
+    H5free_memory(raw[i]);
   }
+  check(status, name, "read failed");
+  if (too_long != count)
+    fail(name, "string " + std::to_string(too_long) + " has " + std::to_string(out[too_long].size()) +
+                   " bytes, more than the limit of " + std::to_string(max_bytes));
   return out;
 }
 
@@ -189,10 +253,16 @@ int File::read_int_attr(const std::string& object, const char* attr) const {
   Handle a = checked(H5Aopen_by_name(id.get(), object.c_str(), attr, H5P_DEFAULT, H5P_DEFAULT), H5Aclose, label,
                      "missing attribute");
   Handle type(H5Aget_type(a.get()), H5Tclose);
-  if (H5Tget_class(type.get()) != H5T_INTEGER) fail(label, "attribute is not an integer");
-  int value = 0;
-  check(H5Aread(a.get(), H5T_NATIVE_INT, &value), label, "read failed");
-  return value;
+  if (H5Tget_class(type.get()) != H5T_INTEGER || H5Tget_size(type.get()) > 8)
+    fail(label, "attribute is " + type_label(type.get()) + ", expected an integer");
+  Handle space(H5Aget_space(a.get()), H5Sclose);
+  if (H5Sget_simple_extent_npoints(space.get()) != 1) fail(label, "attribute is not a single value");
+  // Read as 64 bits so that a wider stored value is range-checked here, not clipped by HDF5.
+  long long value = 0;
+  check(H5Aread(a.get(), H5T_NATIVE_LLONG, &value), label, "read failed");
+  if (value < std::numeric_limits<int>::min() || value > std::numeric_limits<int>::max())
+    fail(label, "value " + std::to_string(value) + " out of range");
+  return static_cast<int>(value);
 }
 
 std::string File::read_string_attr(const std::string& object, const char* attr) const {

@@ -16,6 +16,12 @@ namespace pd::h5 {
 
 using Shape = std::vector<hsize_t>;
 
+// Longest string read_strings accepts by default (object names, hashes), bytes. The scene text
+// attribute has its own limit (frame_file_check.h).
+constexpr size_t kMaxStringBytes = 65536;
+// Largest whole-dataset read of compressed data (File::require_stored), bytes.
+constexpr unsigned long long kMaxFilteredBytes = 1ull << 30;
+
 // Owns one hid_t and closes it with the matching H5?close function.
 class Handle {
  public:
@@ -88,16 +94,26 @@ struct File {
           void* data) const;
   void write_whole(const std::string& name, hid_t file_type, hid_t mem_type, const Shape& dims,
                    const void* data) const;
-  // Opens dataset `name`, checks its type class and shape (-1 matches any extent); dims gets the shape.
+  // Opens dataset `name`, checks its type class, element size in bytes and shape (-1 matches any
+  // extent); dims gets the shape. elem_size 0: 8 for H5T_FLOAT (float64; float32 is refused), any
+  // for the other classes. A dataspace that is not simple (scalar, null) is refused.
   Handle open(const std::string& name, H5T_class_t cls, const std::vector<long long>& shape,
-              Shape* dims = nullptr) const;
-  // Reads all of dataset `name`, whose shape must be `shape`, into out.
+              Shape* dims = nullptr, size_t elem_size = 0) const;
+  // Refuses a whole read of dataset `dset` (shape dims) whose data the file cannot hold: more bytes
+  // than its stored size (a hostile shape would otherwise size an allocation of gigabytes from a
+  // few bytes of header), or, for filtered (compressed) data, more than kMaxFilteredBytes. Strings
+  // are bounded by read_strings instead.
+  void require_stored(hid_t dset, const std::string& name, const Shape& dims) const;
+  // Reads all of dataset `name`, whose shape must be `shape` (and element size elem_size, as open), into out.
   void read_into(const std::string& name, hid_t mem_type, H5T_class_t cls, const std::vector<long long>& shape,
-                 void* out) const;
-  // Reads `count` variable-length strings from an attribute (attr = true) or a dataset `obj`.
-  std::vector<std::string> read_strings(hid_t obj, bool attr, const std::string& name, hsize_t count) const;
+                 void* out, size_t elem_size = 0) const;
+  // Reads `count` variable-length strings from an attribute (attr = true) or a dataset `obj`, which
+  // must hold exactly `count` of them; each at most max_bytes long (else InputError naming `name`).
+  std::vector<std::string> read_strings(hid_t obj, bool attr, const std::string& name, hsize_t count,
+                                        size_t max_bytes = kMaxStringBytes) const;
   // Scalar attributes `attr` of the object at path `object` ("/" for the root group). The error
-  // messages name them "<object>@<attr>".
+  // messages name them "<object>@<attr>". read_int_attr takes a scalar (or one-element) integer
+  // attribute whose value fits an int, and refuses anything else (a float, a string, an array).
   void write_int_attr(const std::string& object, const char* attr, int value) const;
   void write_string_attr(const std::string& object, const char* attr, const std::string& value) const;
   int read_int_attr(const std::string& object, const char* attr) const;

@@ -7,6 +7,7 @@
 
 #include <Eigen/SparseCore>
 
+#include "store/frame_file_check.h"
 #include "store/frame_store.h"
 #include "store/h5_util.h"
 
@@ -30,6 +31,7 @@ File open_file(const std::string& path, bool write) {
   f.path = path;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) f.fail("", "no such file");
+  check_global_heaps(f);  // before HDF5 parses anything (see frame_file_check.h)
   const htri_t is_hdf5 = H5Fis_hdf5(path.c_str());
   if (is_hdf5 == 0) f.fail("", "not an HDF5 file");
   if (is_hdf5 < 0) f.fail_h5("", "cannot read the file");
@@ -67,11 +69,13 @@ void put_strings(const File& f, const std::string& name, const std::vector<std::
 
 // ---- typed whole-dataset reads; `n` = -1 accepts any length --------------------------------------
 
+// elem_size: the stored element's size in bytes (int32 4, int64 8, float64 8).
 template <class T>
 std::vector<T> get_vec(const File& f, const std::string& name, hid_t mem, H5T_class_t cls, long long n,
                        long long cols = 0) {
   Shape d;
-  Handle h = f.open(name, cls, cols ? std::vector<long long>{n, cols} : std::vector<long long>{n}, &d);
+  Handle h = f.open(name, cls, cols ? std::vector<long long>{n, cols} : std::vector<long long>{n}, &d, sizeof(T));
+  f.require_stored(h.get(), name, d);  // before the allocation below
   std::vector<T> v(static_cast<size_t>(d[0] * (cols ? cols : 1)));
   f.io(false, h.get(), name, mem, Shape(d.size(), 0), d, v.data());
   return v;
@@ -87,13 +91,13 @@ std::vector<long long> get_int64s(const File& f, const std::string& name, long l
 }
 Positions get_positions(const File& f, const std::string& name, long long n = -1) {
   const std::vector<double> v = get_doubles(f, name, n, 3);
+  check_finite(f, name, v.data(), v.size(), 3, "vertex");
   return Eigen::Map<const Positions>(v.data(), static_cast<Eigen::Index>(v.size() / 3), 3);
 }
 Faces get_faces(const File& f, const std::string& name, int num_vertices, long long m = -1) {
   const std::vector<int> v = get_ints(f, name, m, 3);
   Faces F = Eigen::Map<const Faces>(v.data(), static_cast<Eigen::Index>(v.size() / 3), 3);
-  if (F.size() > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= num_vertices))
-    f.fail(name, "face index outside [0, " + std::to_string(num_vertices) + ")");
+  check_index_range(f, name, v.data(), v.size(), 0, num_vertices, "vertex index");
   return F;
 }
 
@@ -110,13 +114,6 @@ void put_tri_lists(const File& f, const std::string& name, const std::vector<Col
   }
   put_ints(f, name, flat.data(), flat.size() / 3, 3);
   put_int64s(f, name + "_offsets", off);
-}
-
-// Checks offsets of `count` + 1 entries that run from 0 to `total` without decreasing.
-void check_offsets(const File& f, const std::string& name, const std::vector<long long>& off, long long total) {
-  bool ok = !off.empty() && off.front() == 0 && off.back() == total;
-  for (size_t i = 0; ok && i + 1 < off.size(); ++i) ok = off[i] <= off[i + 1];
-  if (!ok) f.fail(name, "offsets must not decrease and run from 0 to " + std::to_string(total));
 }
 
 void put_collapses(const File& f, const std::string& g, const std::vector<Collapse>& cs) {
@@ -139,13 +136,19 @@ void put_collapses(const File& f, const std::string& g, const std::vector<Collap
   put_tri_lists(f, g + "/faces_after", cs, false);
 }
 
-std::vector<Collapse> get_collapses(const File& f, const std::string& g) {
+// The collapses of group g, whose vertex ids are those of the finer level (num_fine vertices).
+std::vector<Collapse> get_collapses(const File& f, const std::string& g, int num_fine) {
   const std::vector<int> removed = get_ints(f, g + "/removed");
   const long long n = static_cast<long long>(removed.size());
   const std::vector<int> kept = get_ints(f, g + "/kept", n);
+  check_index_range(f, g + "/removed", removed.data(), removed.size(), 0, num_fine, "vertex id");
+  check_index_range(f, g + "/kept", kept.data(), kept.size(), 0, num_fine, "vertex id");
   const std::vector<double> rp = get_doubles(f, g + "/removed_position", n, 3);
   const std::vector<double> kb = get_doubles(f, g + "/kept_position_before", n, 3);
   const std::vector<double> ka = get_doubles(f, g + "/kept_position_after", n, 3);
+  check_finite(f, g + "/removed_position", rp.data(), rp.size(), 3, "collapse");
+  check_finite(f, g + "/kept_position_before", kb.data(), kb.size(), 3, "collapse");
+  check_finite(f, g + "/kept_position_after", ka.data(), ka.size(), 3, "collapse");
   std::vector<Collapse> cs(static_cast<size_t>(n));
   for (size_t c = 0; c < cs.size(); ++c) {
     cs[c].removed = removed[c];
@@ -157,6 +160,7 @@ std::vector<Collapse> get_collapses(const File& f, const std::string& g) {
   for (bool before : {true, false}) {
     const std::string name = g + (before ? "/faces_before" : "/faces_after");
     const std::vector<int> flat = get_ints(f, name, -1, 3);
+    check_index_range(f, name, flat.data(), flat.size(), 0, num_fine, "vertex id");
     const std::vector<long long> off = get_int64s(f, name + "_offsets", n + 1);
     check_offsets(f, name + "_offsets", off, static_cast<long long>(flat.size() / 3));
     for (size_t c = 0; c < cs.size(); ++c) {
@@ -179,8 +183,11 @@ void put_batches(const File& f, const std::string& g, const std::vector<std::vec
   put_int64s(f, g + "/batch_offsets", off);
 }
 
-std::vector<std::vector<int>> get_batches(const File& f, const std::string& g) {
+// Batches of indices into the level's num_collapses collapses.
+std::vector<std::vector<int>> get_batches(const File& f, const std::string& g, size_t num_collapses) {
   const std::vector<int> flat = get_ints(f, g + "/batches");
+  check_index_range(f, g + "/batches", flat.data(), flat.size(), 0, static_cast<long long>(num_collapses),
+                    "collapse index");
   const std::vector<long long> off = get_int64s(f, g + "/batch_offsets");
   check_offsets(f, g + "/batch_offsets", off, static_cast<long long>(flat.size()));
   std::vector<std::vector<int>> out;
@@ -305,23 +312,42 @@ void put_object(const File& f, size_t k, const ObjectHierarchy& oh, const std::s
   }
 }
 
-ObjectHierarchy get_object(const File& f, size_t k, int num_levels) {
+// Object k of a hierarchy whose scene levels are `levels`: each of its level meshes must have as many
+// vertices and triangles as the object owns in that scene level (vertex and face offsets), and every
+// map, collapse and batch must index existing vertices, collapses and faces.
+ObjectHierarchy get_object(const File& f, size_t k, const std::vector<SceneLevel>& levels) {
+  const int num_levels = static_cast<int>(levels.size());
   const std::string g = object_group(k);
   const int batch_levels = f.read_int_attr(g, "batch_levels");
   if (batch_levels < 0 || batch_levels > num_levels)
     f.fail(g + "/@batch_levels", "must be in [0, " + std::to_string(num_levels) + "]");
   ObjectHierarchy oh;
   oh.levels.resize(static_cast<size_t>(num_levels));
+  for (int l = 0; l < num_levels; ++l) {  // meshes first: the maps below need every level's size
+    Level& lv = oh.levels[static_cast<size_t>(l)];
+    const SceneLevel& s = levels[static_cast<size_t>(l)];
+    const std::string gl = g + "/" + std::to_string(l);
+    const int n = s.vertex_offsets[k + 1] - s.vertex_offsets[k], m = s.face_offsets[k + 1] - s.face_offsets[k];
+    lv.mesh.V = get_positions(f, gl + "/positions", n);
+    lv.mesh.F = get_faces(f, gl + "/faces", n, m);
+  }
+  const long long n_finest = oh.levels.back().mesh.V.rows();
   for (int l = 0; l < num_levels; ++l) {
     Level& lv = oh.levels[static_cast<size_t>(l)];
     const std::string gl = g + "/" + std::to_string(l);
-    lv.mesh.V = get_positions(f, gl + "/positions");
-    lv.mesh.F = get_faces(f, gl + "/faces", static_cast<int>(lv.mesh.V.rows()));
-    lv.to_finest = get_ints(f, gl + "/to_finest", lv.mesh.V.rows());
-    lv.coarse_to_fine = get_ints(f, gl + "/coarse_to_fine");
-    lv.fine_to_coarse = get_ints(f, gl + "/fine_to_coarse");
-    lv.collapses = get_collapses(f, gl + "/collapses");
-    if (l < batch_levels) oh.batches.push_back(get_batches(f, gl));
+    const long long n = lv.mesh.V.rows();
+    const bool finest = l + 1 == num_levels;
+    const int n_next = finest ? 0 : static_cast<int>(oh.levels[static_cast<size_t>(l) + 1].mesh.V.rows());
+    lv.to_finest = get_ints(f, gl + "/to_finest", n);
+    check_index_range(f, gl + "/to_finest", lv.to_finest.data(), lv.to_finest.size(), 0, n_finest, "vertex id");
+    lv.coarse_to_fine = get_ints(f, gl + "/coarse_to_fine", finest ? 0 : n);
+    check_index_range(f, gl + "/coarse_to_fine", lv.coarse_to_fine.data(), lv.coarse_to_fine.size(), -1, n_next,
+                      "vertex id");
+    lv.fine_to_coarse = get_ints(f, gl + "/fine_to_coarse", n_next);
+    check_index_range(f, gl + "/fine_to_coarse", lv.fine_to_coarse.data(), lv.fine_to_coarse.size(), -1, n,
+                      "vertex id");
+    lv.collapses = get_collapses(f, gl + "/collapses", n_next);
+    if (l < batch_levels) oh.batches.push_back(get_batches(f, gl, lv.collapses.size()));
   }
   return oh;
 }
@@ -381,19 +407,31 @@ std::optional<SceneHierarchy> read_hierarchy(const std::string& path) {
   h.hash = f.read_string_attr(kRoot, "hash");
   const int L = f.read_int_attr(kRoot, "num_levels");
   const int K = f.read_int_attr(kRoot, "num_objects");
-  if (L < 1 || K < 1) f.fail(kRoot, "needs num_levels >= 1 and num_objects >= 1");
+  // Limits before anything is allocated from them (a hostile count would otherwise exhaust memory).
+  if (L < 1 || L > kMaxFrameFileLevels)
+    f.fail(std::string(kRoot) + "/@num_levels", "must be in [1, " + std::to_string(kMaxFrameFileLevels) + "], got " +
+                                                    std::to_string(L));
+  if (K < 1 || K > kMaxLevelObjects)
+    f.fail(std::string(kRoot) + "/@num_objects", "must be in [1, " + std::to_string(kMaxLevelObjects) + "], got " +
+                                                     std::to_string(K));
   h.levels.resize(static_cast<size_t>(L));
   for (int l = 0; l < L; ++l) {
     SceneLevel& s = h.levels[static_cast<size_t>(l)];
     const std::string g = level_group(l);
     s.rest.V = get_positions(f, g + "/rest_positions");
     const int n = static_cast<int>(s.rest.V.rows());
+    if (n < 1) f.fail(g + "/rest_positions", "the level has no vertices");
     s.rest.F = get_faces(f, g + "/faces", n);
     s.vertex_offsets = get_ints(f, g + "/object_offsets", K + 1);
     check_offsets(f, g + "/object_offsets", {s.vertex_offsets.begin(), s.vertex_offsets.end()}, n);
     s.face_offsets = get_ints(f, g + "/face_offsets", K + 1);
     check_offsets(f, g + "/face_offsets", {s.face_offsets.begin(), s.face_offsets.end()}, s.rest.F.rows());
     s.to_finest = get_ints(f, g + "/to_finest", n);
+  }
+  const long long n_finest = h.levels.back().rest.V.rows();
+  for (int l = 0; l < L; ++l) {
+    const std::vector<int>& m = h.levels[static_cast<size_t>(l)].to_finest;
+    check_index_range(f, level_group(l) + "/to_finest", m.data(), m.size(), 0, n_finest, "vertex id");
   }
   // Operators after all rest meshes are known (to_next needs level l + 1's).
   const Positions& finest_rest = h.levels.back().rest.V;
@@ -407,7 +445,7 @@ std::optional<SceneHierarchy> read_hierarchy(const std::string& path) {
     if (f.exists(g + "/to_finest_prolongation"))
       s.to_finest_prolongation = get_prolongation(f, g + "/to_finest_prolongation", s.rest, finest_rest);
   }
-  for (int k = 0; k < K; ++k) h.objects.push_back(get_object(f, static_cast<size_t>(k), L));
+  for (int k = 0; k < K; ++k) h.objects.push_back(get_object(f, static_cast<size_t>(k), h.levels));
   return h;
 }
 

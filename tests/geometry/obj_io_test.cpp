@@ -5,13 +5,20 @@
 #include <Eigen/Geometry>
 
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <limits>
 #include <string>
+#include <thread>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "geometry/obj_io.h"
 #include "geometry/shapes.h"
@@ -139,19 +146,112 @@ TEST_F(ObjIo, MissingFileNamesPathAndReason) {
   }
 }
 
-TEST_F(ObjIo, DirectoryIsReportedAsCannotOpen) {
+TEST_F(ObjIo, DirectoryIsRefusedAsNotARegularFile) {
   try {
     read_obj(dir_.string());
     FAIL() << "no InputError";
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), dir_.string() + ": cannot open: " + std::strerror(EISDIR));
+    EXPECT_EQ(std::string(e.what()), dir_.string() + ": is a directory, not an OBJ file");
   }
 }
 
+// read_obj(path) in a thread, waited for at most 5 s. If it blocks in open() on a FIFO, opening the
+// FIFO's write end (non-blocking) releases it, so a regression fails the test instead of hanging it.
+std::string error_within_five_seconds(const std::string& path, bool* in_time) {
+  std::promise<std::string> result;
+  std::future<std::string> done = result.get_future();
+  std::thread reader([&] {
+    try {
+      read_obj(path);
+      result.set_value("(no InputError)");
+    } catch (const InputError& e) {
+      result.set_value(e.what());
+    }
+  });
+  *in_time = done.wait_for(std::chrono::seconds(5)) == std::future_status::ready;
+  if (!*in_time) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_NONBLOCK);
+    if (fd >= 0) ::close(fd);
+  }
+  reader.join();
+  return done.get();
+}
+
+TEST_F(ObjIo, FifoIsRefusedWithoutBlocking) {
+  const std::string fifo = (dir_ / "mesh.obj").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0) << std::strerror(errno);
+  bool in_time = false;
+  const std::string message = error_within_five_seconds(fifo, &in_time);
+  ASSERT_TRUE(in_time) << "read_obj blocked on a FIFO";
+  EXPECT_EQ(message, fifo + ": is a FIFO, not an OBJ file");
+}
+
+TEST_F(ObjIo, DeviceIsRefusedWithoutReading) {
+  // /dev/zero would never reach a newline; /dev/null would read as an empty file.
+  for (const char* device : {"/dev/zero", "/dev/null"}) {
+    bool in_time = false;
+    const std::string message = error_within_five_seconds(device, &in_time);
+    ASSERT_TRUE(in_time) << device;
+    EXPECT_EQ(message, std::string(device) + ": is a character device, not an OBJ file");
+  }
+}
+
+TEST_F(ObjIo, SymlinkToARegularFileIsRead) {
+  const std::string target = write_text("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  const fs::path link = dir_ / "link.obj";
+  fs::create_symlink(target, link);
+  EXPECT_EQ(read_obj(link.string()).num_faces(), 1);
+}
+
+TEST_F(ObjIo, FileOverTheSizeLimitIsRefusedBeforeReading) {
+  const std::string path = write_text("big.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n" + std::string(200, '#'));
+  ObjLimits limits;
+  limits.max_bytes = 100;
+  try {
+    read_obj(path, limits);
+    FAIL() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": the file has 232 bytes, more than the limit of 100");
+  }
+  limits.max_bytes = 232;
+  EXPECT_EQ(read_obj(path, limits).num_faces(), 1);
+}
+
+TEST_F(ObjIo, VertexAndFaceLimitsStopAtTheLineThatCrossesThem) {
+  const std::string text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3 4\nf 1 2 3\n";
+  const std::string path = write_text("quad.obj", text);
+  ObjLimits limits;
+  limits.max_vertices = 3;
+  const auto message_of = [&](const ObjLimits& l) {
+    try {
+      read_obj(path, l);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no InputError)");
+  };
+  EXPECT_EQ(message_of(limits), path + ":4: more than 3 vertices (the limit)");
+  limits.max_vertices = 4;
+  limits.max_faces = 2;  // the quad gives 2 triangles, line 6 the third
+  EXPECT_EQ(message_of(limits),
+            path + ":6: more than 2 faces (the limit, after splitting polygons into triangles)");
+  limits.max_faces = 3;
+  EXPECT_EQ(read_obj(path, limits).num_faces(), 3);
+}
+
+TEST_F(ObjIo, OverlongLineNamesItsLineWithoutReadingItAll) {
+  expect_error_at("v 0 0 0\nv 1 0 0\n# " + std::string(70000, 'x') + "\nf 1 2 3\n", 3, "line longer than 65536 bytes");
+}
+
+TEST_F(ObjIo, ControlCharactersInBadTokensAreEscaped) {
+  expect_error_at("v 0 0 0\nv 1 \x01\x1b[2J 0\n", 2, "malformed number \"\\x01\\x1b[2J\"");
+  expect_error_at("v 0 0 0\nv 1 " + std::string(500, '9') + "x 0\n", 2, "...\"(501 chars)");
+}
+
 TEST_F(ObjIo, BadNumberNamesLine) {
-  expect_error_at("v 0 0 0\nv 1 0x 0\n", 2, "malformed number '0x'");
+  expect_error_at("v 0 0 0\nv 1 0x 0\n", 2, "malformed number \"0x\"");
   expect_error_at("v 0 0 0\nv 1 +-1 0\n", 2, "malformed number");
-  expect_error_at("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 three\n", 4, "malformed vertex index 'three'");
+  expect_error_at("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 three\n", 4, "malformed vertex index \"three\"");
   expect_error_at("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 /3\n", 4, "malformed vertex index");
 }
 

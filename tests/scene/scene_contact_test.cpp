@@ -118,7 +118,7 @@ TEST(SceneContactErrors, ContactParametersOutOfRangeAreRejected) {
       {R"({})", "contact.dhat: required key is missing"},
       {R"({"dhat": 1e-3, "offset": -1e-4})", "contact.offset"},
       {R"({"dhat": 1e-3, "ccd_ratio": 1.0})", "contact.ccd_ratio: must be > 0 and < 1"},
-      {R"({"dhat": 1e-3, "friction": -0.1})", "contact.friction: a friction coefficient must be >= 0, got -0.1"},
+      {R"({"dhat": 1e-3, "friction": -0.1})", "contact.friction: a friction coefficient must be from 0 to 10, got -0.1"},
       {R"({"dhat": 1e-3, "eps_v": 0})", "contact.eps_v"},
       {R"({"dhat": 1e-3, "stiffness": -5})", "contact.stiffness"},
       {R"({"dhat": 1e-3, "dhats": 1})", "contact.dhats: unknown key"},
