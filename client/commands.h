@@ -20,13 +20,18 @@ struct SimulateArgs {
   int level = -1;           // direct: the hierarchy level to simulate (0 = coarsest)
   int levels = -1;          // override of the scene's hierarchy.levels
   bool preview_only = false;  // progressive: stop after level 0
-  std::string hessian = "lagged";  // progressive: "galerkin", "lagged" or "coarse" (progressive/prolonged_term.h)
+  // progressive: "galerkin", "lagged" or "coarse" (progressive/prolonged_term.h); empty: not given (lagged)
+  std::string hessian;
+  bool force = false;  // replace an existing `out` that is not a frame file
+  // Steps that stop before convergence make pd simulate exit 3 (frames kept); with this, 0 and a
+  // warning.
+  bool allow_unconverged = false;
 };
 int simulate(const SimulateArgs& args);
 
 struct ExportArgs {
   std::string file;
-  int level = 0;
+  int level = -1;  // -1: not given (level 0)
   std::string format = "obj";
   std::string out_dir;
   bool rest = false;     // write every level's rest mesh as level_<l>.obj (instead of frames)
@@ -38,6 +43,7 @@ struct HierarchyArgs {
   std::string scene;
   std::string out;    // frame file that receives the hierarchy (reused when its hash matches)
   bool json = false;  // print one JSON object instead of text lines
+  bool force = false;  // replace an existing `out` that is not a frame file
 };
 int hierarchy(const HierarchyArgs& args);
 
@@ -47,6 +53,7 @@ struct CompareArgs {
   std::string csv;    // CSV output; empty: FILE.compare.csv
   bool json = false;  // print one JSON object on stdout (docs/progressive.md, "Error measures") instead of text
   std::string seams;  // "T1,T2,...": frames later time subsets start from; seam jitter of OTHER against FILE
+  bool force = false;  // replace an existing `csv` that is not a pd compare CSV
 };
 int compare(const CompareArgs& args);
 

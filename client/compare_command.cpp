@@ -15,7 +15,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli_text.h"
 #include "commands.h"
+#include "output_files.h"
 #include "progressive/consistency.h"
 #include "progressive/error_measures.h"
 #include "store/frame_store.h"
@@ -29,6 +31,8 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Two rest meshes are "the same mesh" when every vertex agrees to this (m): far below any mesh
 // spacing, far above the round-off of building the same mesh twice.
 constexpr double kSameRestTolerance = 1e-9;
+// How the CSV's header starts: an existing --csv file that starts otherwise was not written by pd compare.
+constexpr const char* kCsvHeadStart = "file,level,frame,";
 
 // The scene's time step from the file's stored scene text (NaN when it cannot be read: the CSV's
 // time column is then empty rather than wrong).
@@ -69,6 +73,36 @@ struct Measured {
 bool same_mesh(const FrameReader& a, int la, const FrameReader& b, int lb) {
   if (a.num_vertices(la) != b.num_vertices(lb) || a.object_offsets(la) != b.object_offsets(lb)) return false;
   return (a.rest_positions(la) - b.rest_positions(lb)).cwiseAbs().maxCoeff() <= kSameRestTolerance;
+}
+
+// Refuses OTHER when it does not hold a run of FILE's scene. Runs of one scene may differ in frame
+// count, mode, hierarchy and solver settings, and their scene texts in OBJ paths (e.g. made absolute in
+// a copy), so the scene text is not compared; what must agree is the finest level of each file (the
+// scene's meshes as given): object names in order, vertices and triangles per object, rest positions.
+void check_same_scene(const FrameReader& a, const FrameReader& b) {
+  const int la = a.num_levels() - 1, lb = b.num_levels() - 1;
+  const std::string head = shown_path(b.path()) + ": is not a run of the scene of " + shown_path(a.path()) + ": ";
+  const std::string tail = " (pd compare compares runs of one scene)";
+  const std::vector<std::string> na = a.object_names(la), nb = b.object_names(lb);
+  if (na != nb) {
+    const auto list = [](const std::vector<std::string>& v) {
+      std::string out;
+      for (const std::string& n : v) out += (out.empty() ? "" : ", ") + echo(n);
+      return "[" + echo(out) + "]";
+    };
+    throw InputError(head + "its objects " + list(nb) + " differ from " + list(na) + tail);
+  }
+  const std::vector<int> oa = a.object_offsets(la), ob = b.object_offsets(lb);
+  for (std::size_t k = 0; k + 1 < oa.size() && k + 1 < ob.size(); ++k)
+    if (oa[k + 1] - oa[k] != ob[k + 1] - ob[k])
+      throw InputError(head + "object " + echo(na[k]) + " has " + std::to_string(ob[k + 1] - ob[k]) +
+                       " vertices on its finest level, not " + std::to_string(oa[k + 1] - oa[k]) + tail);
+  if (oa != ob || a.faces(la).rows() != b.faces(lb).rows())
+    throw InputError(head + "its finest mesh has " + std::to_string(b.faces(lb).rows()) + " triangles, not " +
+                     std::to_string(a.faces(la).rows()) + tail);
+  const double d = (a.rest_positions(la) - b.rest_positions(lb)).cwiseAbs().maxCoeff();
+  if (!(d <= kSameRestTolerance))
+    throw InputError(head + "its finest rest mesh differs (by up to " + std::to_string(d) + " m)" + tail);
 }
 
 // How series m reaches the reference mesh for the vertex distance: itself when it is its file's finest
@@ -276,11 +310,12 @@ nlohmann::json series_json(const Measured& m, const Source& src) {
 }
 
 // The CSV: one row per series and stored frame; an empty cell where a measure is not defined.
-void write_csv(const std::string& path, const std::vector<Measured>& all, const std::vector<Source>& sources,
+void write_csv(const std::string& path, const std::string& shown, const std::vector<Measured>& all,
+               const std::vector<Source>& sources,
                const std::vector<std::string>& object_names) {
   std::ofstream csv(path);
-  if (!csv) throw InputError(path + ": cannot write the CSV file");
-  csv << "file,level,frame,time_s,kinetic_energy_J,com_deviation_m";
+  if (!csv) throw InputError(shown + ": cannot write the CSV file");
+  csv << kCsvHeadStart << "time_s,kinetic_energy_J,com_deviation_m";
   for (const std::string& name : object_names) csv << ",com_" << name << "_x,com_" << name << "_y,com_" << name << "_z";
   csv << ",vertex_distance_mean_m,vertex_distance_p95_m,vertex_distance_max_m,hausdorff_m,"
          "accel_difference_m_per_frame2\n";
@@ -304,7 +339,7 @@ void write_csv(const std::string& path, const std::vector<Measured>& all, const 
     }
   }
   csv.close();
-  if (!csv) throw InputError(path + ": writing the CSV file failed");
+  if (!csv) throw InputError(shown + ": writing the CSV file failed");
 }
 
 void print_text(const nlohmann::json& j) {
@@ -337,6 +372,11 @@ void print_text(const nlohmann::json& j) {
 int compare(const CompareArgs& args) {
   if (!args.seams.empty() && args.other.empty())
     throw InputError(args.file + ": --seams needs OTHER, the run with time subsets (FILE is the K = 1 run)");
+  check_input_file(args.file, "frame file");
+  if (!args.other.empty()) check_input_file(args.other, "frame file");
+  const std::string csv_path = args.csv.empty() ? args.file + ".compare.csv" : args.csv;
+  check_output_file(csv_path, "--csv", {args.file, args.other});
+  check_replaceable(csv_path, "--csv", args.force, file_starts_with(csv_path, kCsvHeadStart), "a pd compare CSV");
   std::vector<Source> sources;
   sources.reserve(2);  // Measured::P points into a Source's hierarchy: no reallocation
   std::vector<Measured> all;
@@ -353,6 +393,7 @@ int compare(const CompareArgs& args) {
       all.push_back(std::move(m));
     }
   }
+  if (sources.size() == 2) check_same_scene(sources[0].reader, sources[1].reader);
   // The reference: the finest level of the first file that holds frames.
   std::size_t ref = all.size();
   for (std::size_t k = 0; k < all.size(); ++k)
@@ -374,8 +415,11 @@ int compare(const CompareArgs& args) {
   }
   for (const Measured& m : all) out["levels"].push_back(series_json(m, sources[m.source]));
 
-  const std::string csv_path = args.csv.empty() ? args.file + ".compare.csv" : args.csv;
-  write_csv(csv_path, all, sources, all[ref].s.object_names);
+  {
+    PartialOutput csv(csv_path, "--csv");  // CSV_PATH.partial, renamed when complete
+    write_csv(csv.path(), shown_path(csv_path), all, sources, all[ref].s.object_names);
+    csv.commit();
+  }
   if (args.json) {
     std::printf("%s\n", out.dump().c_str());
     std::fflush(stdout);  // the whole object before the stderr line, also when both go to one pipe

@@ -3,10 +3,13 @@
 #include <filesystem>
 #include <optional>
 #include <stdexcept>
+#include <string>
 #include <system_error>
+#include <vector>
 
 #include "commands.h"
 #include "geometry/obj_io.h"
+#include "output_files.h"
 #include "store/frame_store.h"
 #include "store/hierarchy_store.h"
 #include "util/input_error.h"
@@ -72,23 +75,33 @@ int export_prolonged(const FrameReader& reader, const std::string& file, int lev
 }  // namespace
 
 int export_frames(const ExportArgs& args) {
+  check_input_file(args.file, "frame file");
+  check_output_folder(args.out_dir, "--out", {args.file});
   const FrameReader reader(args.file);
-  if (args.level < 0 || args.level >= reader.num_levels())
-    throw InputError(args.file + ": --level " + std::to_string(args.level) + ": the file has levels 0.." +
+  const int level = args.level < 0 ? 0 : args.level;
+  if (level >= reader.num_levels())
+    throw InputError(shown_path(args.file) + ": --level " + std::to_string(level) + ": the file has levels 0.." +
                      std::to_string(reader.num_levels() - 1));
-  if (args.format != "obj") throw InputError("--format " + args.format + ": supported formats: obj");
+  if (args.format != "obj") throw InputError("--format: '" + args.format + "' is not supported; allowed: obj");
+  // Everything goes to a temporary folder first: an error leaves --out as it was (no partial export).
+  PartialFolder out(args.out_dir, "--out");
+  const std::string shown = shown_path(args.out_dir);
+  std::vector<std::string> lines;
   if (args.rest) {
-    const int n = export_rest(reader, args.out_dir);
-    std::printf("wrote the rest meshes of %d levels to %s\n", n, args.out_dir.c_str());
+    const int n = export_rest(reader, out.path());
+    lines.push_back("wrote the rest meshes of " + std::to_string(n) + " levels to " + shown);
   }
   if (args.prolong) {
-    const int n = export_prolonged(reader, args.file, args.level, args.out_dir);
-    std::printf("wrote %d OBJ frames of level %d prolonged to the finest level to %s\n", n, args.level,
-                args.out_dir.c_str());
+    const int n = export_prolonged(reader, args.file, level, out.path());
+    lines.push_back("wrote " + std::to_string(n) + " OBJ frames of level " + std::to_string(level) +
+                    " prolonged to the finest level to " + shown);
   }
-  if (args.rest || args.prolong) return 0;
-  const int n = export_obj_frames(reader, args.level, args.out_dir);
-  std::printf("wrote %d OBJ frames of level %d to %s\n", n, args.level, args.out_dir.c_str());
+  if (!args.rest && !args.prolong) {
+    const int n = export_obj_frames(reader, level, out.path());
+    lines.push_back("wrote " + std::to_string(n) + " OBJ frames of level " + std::to_string(level) + " to " + shown);
+  }
+  out.commit();
+  for (const std::string& line : lines) std::printf("%s\n", line.c_str());
   return 0;
 }
 

@@ -16,6 +16,7 @@
 #include "farm/curve.h"
 #include "farm/slurm.h"
 #include "farm_client.h"
+#include "output_files.h"
 #include "progress.h"
 #include "util/input_error.h"
 
@@ -116,6 +117,7 @@ std::string padded(const std::string& s, std::size_t width) {
 }  // namespace
 
 int submit(const SubmitArgs& args) {
+  check_scene_files(args.scene);
   protocol::SubmitJob job;
   job.scene = read_job_scene(args.scene, args.levels);  // a bad scene stops here, as in pd simulate
   job.preview_only = args.preview_only;
@@ -157,6 +159,7 @@ int status(const StatusArgs& args) {
 }
 
 int fetch(const FetchArgs& args) {
+  check_output_file(args.out, "--out", {});  // no FIFO or device (the rename would replace it)
   check_output_path(args.out);
   // A whole job file (up to protocol::kMaxMessageBytes) may take longer than a status reply.
   FarmClient client = farm_client_for(args.farm, args.keys, std::chrono::seconds(60));

@@ -2,11 +2,13 @@
 // job builds it once and its levels can be inspected (pd export --rest) before simulating.
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "commands.h"
 #include "hierarchy/scene_hierarchy.h"
+#include "output_files.h"
 #include "scene/scene_file.h"
 #include "store/hierarchy_store.h"
 
@@ -48,12 +50,29 @@ std::vector<HierarchyLevelReport> report_of(const SceneHierarchy& h) {
 }  // namespace
 
 int hierarchy(const HierarchyArgs& args) {
+  check_scene_files(args.scene);
   const Scene scene = load_scene(args.scene);
+  std::vector<std::string> inputs = scene_obj_paths(args.scene, scene.json_text);
+  inputs.push_back(args.scene);
+  check_output_file(args.out, "--out", inputs);
+  const bool frame_file = is_frame_file(args.out);
+  check_replaceable(args.out, "--out", args.force, frame_file, "a frame file");
   const auto t0 = std::chrono::steady_clock::now();
   bool reused = false;
   std::vector<HierarchyLevelReport> report;
-  const SceneHierarchy h = load_or_build_hierarchy(scene, args.out, &reused, &report);
-  if (reused) report = report_of(h);
+  std::optional<SceneHierarchy> stored;
+  // A matching stored hierarchy is read in place (nothing written); else the file is built under
+  // OUT.partial and renamed onto OUT, so a failed build leaves OUT as it was.
+  if (frame_file && stored_hierarchy_hash(args.out) == hierarchy_hash(scene)) stored = read_hierarchy(args.out);
+  if (stored) {
+    reused = true;
+    report = report_of(*stored);
+  } else {
+    PartialOutput out(args.out, "--out");
+    stored = load_or_build_hierarchy(scene, out.path(), nullptr, &report);
+    out.commit();
+  }
+  const SceneHierarchy& h = *stored;
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   if (args.json) {

@@ -1,14 +1,18 @@
 // pd: the command-line client. Local commands (simulate, export, hierarchy, compare, keys) run in this process; the
 // farm commands (submit, status, fetch, cancel, refine, workers) talk to a pd-scheduler, and pd run starts a farm of
 // its own on this machine for one job.
+#include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <string>
 
 #include <CLI/CLI.hpp>
 
+#include "cli_text.h"
 #include "commands.h"
 #include "plan_command.h"
+#include "progressive/level_stepper.h"
 #include "util/input_error.h"
 #include "util/process_setup.h"
 
@@ -39,36 +43,28 @@ struct FarmCommands {
   }
 };
 
-// An integer option or argument that must be >= 1 (ids, counts): CLI11's PositiveNumber would print
-// its range as doubles.
-CLI::Validator at_least_one() {
-  return CLI::Validator(
-      [](std::string& text) -> std::string {
-        try {
-          std::size_t used = 0;
-          const long long v = std::stoll(text, &used);
-          if (used == text.size() && v >= 1) return "";
-        } catch (const std::exception&) {
-        }
-        return "must be an integer >= 1, got " + text;
-      },
-      "INT>=1");
+// The validators of numeric options (cli_text.h): decimal only, a short stated range.
+constexpr int64_t kIntMax = 2147483647;
+CLI::Validator count_at_least_one() { return pd::cli::decimal_integer(1, kIntMax); }
+CLI::Validator job_id() { return pd::cli::decimal_integer(1, INT64_MAX, "a positive integer (a job id)"); }
+CLI::Validator frame_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxFrames); }
+CLI::Validator level_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxLevels); }
+CLI::Validator level_index() { return pd::cli::decimal_integer(0, pd::cli::kMaxLevels - 1); }
+CLI::Validator positive_seconds() { return pd::cli::decimal_real(0.0, true, 1e9, "seconds, > 0 and <= 1e9"); }
+CLI::Validator hessian_kind() { return pd::cli::one_of({"galerkin", "lagged", "coarse"}); }
+
+// Ends the process after an error without the exit handlers: after a failed HDF5 write (disk full,
+// file size limit) the frame file stays half-closed inside the HDF5 library, whose own exit handler
+// (H5_term_library) then crashes with SIGSEGV while closing it again. Every file pd writes has been
+// closed or removed by then (destructors ran while the exception unwound), so nothing is lost.
+[[noreturn]] void exit_without_hdf5_cleanup(int code) {
+  std::fflush(stdout);
+  std::fflush(stderr);
+  std::_Exit(code);
 }
 
-// A number of seconds > 0.
-CLI::Validator positive_seconds() {
-  return CLI::Validator(
-      [](std::string& text) -> std::string {
-        try {
-          std::size_t used = 0;
-          const double v = std::stod(text, &used);
-          if (used == text.size() && v > 0 && v < 1e9) return "";
-        } catch (const std::exception&) {
-        }
-        return "must be a number of seconds > 0, got " + text;
-      },
-      "SECONDS>0");
-}
+// How often `name` was given to `command`.
+std::size_t f_count(const CLI::App* command, const std::string& name) { return command->get_option(name)->count(); }
 
 // --farm, --server-key and --key of one farm command.
 void add_farm_options(CLI::App* command, std::string& farm, pd::cli::FarmKeyFiles& keys) {
@@ -82,14 +78,16 @@ void add_farm_options(CLI::App* command, std::string& farm, pd::cli::FarmKeyFile
 void add_slurm_commands(CLI::App* workers, pd::cli::WorkersArgs& w) {
   using Action = pd::cli::WorkersArgs::Action;
   CLI::App* add = workers->add_subcommand("add", "Start workers as a Slurm job array (the scheduler runs sbatch)");
-  add->add_option("--slurm", w.add.count, "Number of Slurm workers (array tasks)")->required()->check(at_least_one());
+  add->add_option("--slurm", w.add.count, "Number of Slurm workers (array tasks)")
+      ->required()
+      ->transform(count_at_least_one());
   add->add_option("--partition", w.add.partition, "Slurm partition (default: the cluster's default)");
   add->add_option("--time", w.add.time_limit, "Time limit per worker, Slurm's format (e.g. 2:00:00)");
-  add->add_option("--cpus", w.add.cpus, "CPUs per worker (default: the job script's)")->check(at_least_one());
+  add->add_option("--cpus", w.add.cpus, "CPUs per worker (default: the job script's)")->transform(count_at_least_one());
   add->add_option("--mem", w.add.memory, "Memory per worker, e.g. 4G (default: the job script's)");
   add->add_option("--keep", w.add.keep,
                   "Keep this many Slurm workers running while work remains (a replacement when one ends); 0: none")
-      ->check(CLI::Range(0, 1000));
+      ->transform(pd::cli::decimal_integer(0, 1000));
   add->add_flag("--json", w.json, "Print {\"slurm_job\", \"tasks\", \"message\"}");
   add->callback([&w] { w.action = Action::add; });
   add->fallthrough();  // --farm, --server-key, --key of pd workers may follow the subcommand
@@ -112,45 +110,46 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
   add_farm_options(f.submit, f.sub.farm, f.sub.keys);
   f.submit->add_flag("--preview-only", f.sub.preview_only,
                      "Only the preview (level 0); add the rest later with pd refine");
-  f.submit->add_option("--levels", f.sub.levels, "Hierarchy levels instead of the scene's")->check(at_least_one());
+  f.submit->add_option("--levels", f.sub.levels, "Hierarchy levels instead of the scene's")->transform(level_count());
   f.submit->add_option("--subsets", f.sub.subsets, "Time subsets per refinement level (parallel tasks)")
-      ->check(at_least_one());
-  f.submit->add_option("--priority", f.sub.priority, "Higher runs first (default 0)");
-  f.submit->add_option("--frames", f.sub.frames, "Frames instead of the scene's count")->check(at_least_one());
+      ->transform(count_at_least_one());
+  f.submit->add_option("--priority", f.sub.priority, "Higher runs first (default 0)")
+      ->transform(pd::cli::decimal_integer(-kIntMax - 1, kIntMax));
+  f.submit->add_option("--frames", f.sub.frames, "Frames instead of the scene's count")->transform(frame_count());
   f.submit->add_option("--preview-chunk", f.sub.preview_chunk, "Frames per preview task (default: the scheduler's)")
-      ->check(at_least_one());
+      ->transform(frame_count());
   f.submit->add_option("--hessian", f.sub.hessian, "Hessian of the prolonged elasticity")
-      ->check(CLI::IsMember({"galerkin", "lagged", "coarse"}));
+      ->transform(hessian_kind());
   f.submit->add_flag("--json", f.sub.json, "Print {\"job\": ID} instead of the bare id");
 
   f.status = app.add_subcommand("status", "Progress of one job, or of every job");
-  f.status->add_option("job", f.st.job, job_help + "; without it every job")->check(at_least_one());
+  f.status->add_option("job", f.st.job, job_help + "; without it every job")->transform(job_id());
   add_farm_options(f.status, f.st.farm, f.st.keys);
   f.status->add_flag("--json", f.st.json, "Print the reply as JSON");
   f.status->add_flag("--watch", f.st.watch, "Redraw every --interval until the job(s) shown end");
   f.status->add_flag("--wait", f.st.wait, "Block until JOB ends, print it; exit 0 only when it is done");
   f.status->add_option("--interval", f.st.interval, "Seconds between polls of --watch and --wait (default 1)")
-      ->check(positive_seconds());
+      ->transform(positive_seconds());
 
   f.fetch = app.add_subcommand("fetch", "Download a job's frame file (as stored so far)");
-  f.fetch->add_option("job", f.fe.job, job_help)->required()->check(at_least_one());
+  f.fetch->add_option("job", f.fe.job, job_help)->required()->transform(job_id());
   f.fetch->add_option("--out,-o", f.fe.out, "Frame file to write (HDF5)")->required();
   add_farm_options(f.fetch, f.fe.farm, f.fe.keys);
   f.fetch->add_flag("--json", f.fe.json, "Print {\"job\", \"file\", \"bytes\"}");
 
   f.cancel = app.add_subcommand("cancel", "Cancel a job: its running tasks stop, no frame is added");
-  f.cancel->add_option("job", f.ca.job, job_help)->required()->check(at_least_one());
+  f.cancel->add_option("job", f.ca.job, job_help)->required()->transform(job_id());
   add_farm_options(f.cancel, f.ca.farm, f.ca.keys);
   f.cancel->add_flag("--json", f.ca.json, "Print {\"job\", \"message\"}");
 
   f.refine = app.add_subcommand("refine", "Add the refinement levels to a preview-only job");
-  f.refine->add_option("job", f.re.job, job_help)->required()->check(at_least_one());
-  f.refine->add_option("--subsets", f.re.subsets, "Time subsets per refinement level")->check(at_least_one());
+  f.refine->add_option("job", f.re.job, job_help)->required()->transform(job_id());
+  f.refine->add_option("--subsets", f.re.subsets, "Time subsets per refinement level")->transform(count_at_least_one());
   add_farm_options(f.refine, f.re.farm, f.re.keys);
   f.refine->add_flag("--json", f.re.json, "Print {\"job\", \"message\"}");
 
   f.requeue = app.add_subcommand("requeue", "Retry a failed job: its failed and blocked tasks run again");
-  f.requeue->add_option("job", f.rq.job, job_help)->required()->check(at_least_one());
+  f.requeue->add_option("job", f.rq.job, job_help)->required()->transform(job_id());
   add_farm_options(f.requeue, f.rq.farm, f.rq.keys);
   f.requeue->add_flag("--json", f.rq.json, "Print {\"job\", \"message\"}");
 
@@ -162,14 +161,16 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
 
   f.run = app.add_subcommand("run", "Run a scene as a job on a farm of N workers started on this machine");
   f.run->add_option("scene", f.ru.scene, "Scene file (JSON)")->required();
-  f.run->add_option("--workers,-w", f.ru.workers, "Worker processes to start")->required()->check(at_least_one());
+  f.run->add_option("--workers,-w", f.ru.workers, "Worker processes to start")
+      ->required()
+      ->transform(count_at_least_one());
   f.run->add_option("--out,-o", f.ru.out, "Frame file to write (HDF5) when the job is done")->required();
-  f.run->add_option("--subsets", f.ru.subsets, "Time subsets per refinement level")->check(at_least_one());
+  f.run->add_option("--subsets", f.ru.subsets, "Time subsets per refinement level")->transform(count_at_least_one());
   f.run->add_flag("--preview-only", f.ru.preview_only, "Only the preview (level 0)");
-  f.run->add_option("--levels", f.ru.levels, "Hierarchy levels instead of the scene's")->check(at_least_one());
-  f.run->add_option("--frames", f.ru.frames, "Frames instead of the scene's count")->check(at_least_one());
+  f.run->add_option("--levels", f.ru.levels, "Hierarchy levels instead of the scene's")->transform(level_count());
+  f.run->add_option("--frames", f.ru.frames, "Frames instead of the scene's count")->transform(frame_count());
   f.run->add_option("--hessian", f.ru.hessian, "Hessian of the prolonged elasticity")
-      ->check(CLI::IsMember({"galerkin", "lagged", "coarse"}));
+      ->transform(hessian_kind());
   f.run->add_option("--keep-farm", f.ru.keep_farm,
                     "Farm folder to use and keep (farm.sqlite, jobs/, logs); default: a temporary one, removed");
 }
@@ -184,28 +185,40 @@ int main(int argc, char** argv) {
   pd::cli::SimulateArgs sim;
   auto* simulate = app.add_subcommand("simulate", "Simulate a scene on this machine into an HDF5 frame file");
   simulate->add_option("scene", sim.scene, "Scene file (JSON, see docs/scene-format.md)")->required();
-  simulate->add_option("--out,-o", sim.out, "Frame file to create (HDF5, see docs/frame-format.md)")->required();
+  simulate->add_option("--out,-o", sim.out,
+                       "Frame file to create (HDF5, see docs/frame-format.md); written as OUT.partial, renamed at "
+                       "the end (also after an error, when frames were stored); an existing OUT that is not a "
+                       "frame file is refused unless --force")
+      ->required();
+  simulate->add_flag("--force", sim.force, "Replace an existing --out file even when it is not a frame file");
   simulate->add_option("--frames", sim.frames, "Simulate this many frames instead of the scene's count")
-      ->check(CLI::PositiveNumber);
+      ->transform(frame_count());
   simulate->add_flag("--quiet,-q", sim.quiet, "No progress output");
+  simulate->add_flag("--allow-unconverged", sim.allow_unconverged,
+                     "Exit 0 (with a warning) when steps stop before convergence; without it such a run exits 3");
   simulate->add_option("--mode", sim.mode,
                        "direct (plain implicit Euler) or progressive (preview, then refinement); default: the scene's \"mode\"")
-      ->check(CLI::IsMember({"direct", "progressive"}));
-  simulate->add_option("--level", sim.level, "direct: simulate this hierarchy level's mesh (0 = coarsest)")
-      ->check(CLI::NonNegativeNumber);
+      ->transform(pd::cli::one_of({"direct", "progressive"}));
+  simulate->add_option("--level", sim.level, "direct only: simulate this hierarchy level's mesh (0 = coarsest)")
+      ->transform(level_index());
   simulate->add_option("--levels", sim.levels, "Use this many hierarchy levels instead of the scene's")
-      ->check(CLI::PositiveNumber);
-  simulate->add_flag("--preview-only", sim.preview_only, "progressive: stop after the preview (level 0)");
-  simulate->add_option("--hessian", sim.hessian, "progressive: Hessian of the prolonged elasticity")
-      ->check(CLI::IsMember({"galerkin", "lagged", "coarse"}));
+      ->transform(level_count());
+  simulate->add_flag("--preview-only", sim.preview_only, "progressive only: stop after the preview (level 0)");
+  simulate->add_option("--hessian", sim.hessian,
+                       "progressive only: Hessian of the prolonged elasticity (default lagged)")
+      ->transform(hessian_kind());
 
   pd::cli::ExportArgs exp;
   auto* export_cmd = app.add_subcommand("export", "Write the frames of a frame file for other tools");
   export_cmd->add_option("file", exp.file, "Frame file (HDF5)")->required();
-  export_cmd->add_option("--level", exp.level, "Resolution level (0 = coarsest)")->check(CLI::NonNegativeNumber);
-  export_cmd->add_option("--format", exp.format, "Output format")->check(CLI::IsMember({"obj"}));
-  export_cmd->add_option("--out,-o", exp.out_dir, "Output folder (created if missing)")->required();
-  export_cmd->add_flag("--rest", exp.rest, "Write every level's rest mesh as level_<l>.obj (no frames)");
+  export_cmd->add_option("--level", exp.level, "Resolution level (0 = coarsest)")->transform(level_index());
+  export_cmd->add_option("--format", exp.format, "Output format")->transform(pd::cli::one_of({"obj"}));
+  export_cmd->add_option("--out,-o", exp.out_dir,
+                         "Output folder (created if missing, in an existing folder); the files are written to a "
+                         "temporary folder and moved in at the end")
+      ->required();
+  export_cmd->add_flag("--rest", exp.rest,
+                       "Write every level's rest mesh as level_<l>.obj (no frames; --level only with --prolong)");
   export_cmd->add_flag("--prolong", exp.prolong,
                        "Write the frames of --level prolonged to the finest mesh (needs a stored hierarchy, "
                        "see pd hierarchy)");
@@ -213,8 +226,11 @@ int main(int argc, char** argv) {
   pd::cli::HierarchyArgs hier;
   auto* hierarchy = app.add_subcommand("hierarchy", "Build (or reuse) a scene's level hierarchy into a frame file");
   hierarchy->add_option("scene", hier.scene, "Scene file (JSON, see docs/scene-format.md)")->required();
-  hierarchy->add_option("--out,-o", hier.out, "Frame file to create, or to reuse when its hierarchy matches")
+  hierarchy->add_option("--out,-o", hier.out,
+                        "Frame file to create, or to reuse when its hierarchy matches; an existing OUT that is "
+                        "not a frame file is refused unless --force")
       ->required();
+  hierarchy->add_flag("--force", hier.force, "Replace an existing --out file even when it is not a frame file");
   hierarchy->add_flag("--json", hier.json, "Print one JSON object instead of text lines");
 
   pd::cli::CompareArgs cmp;
@@ -222,7 +238,10 @@ int main(int argc, char** argv) {
       "compare", "Error measures between the levels of one or two frame files (prints or --json, writes CSV)");
   compare->add_option("file", cmp.file, "Frame file; its finest level with frames is the reference")->required();
   compare->add_option("other", cmp.other, "A second frame file of the same scene (e.g. a direct run)");
-  compare->add_option("--csv", cmp.csv, "CSV file to write (default FILE.compare.csv)");
+  compare->add_option("--csv", cmp.csv,
+                      "CSV file to write (default FILE.compare.csv); an existing file that is not a pd compare CSV "
+                      "is refused unless --force");
+  compare->add_flag("--force", cmp.force, "Replace an existing CSV file even when pd compare did not write it");
   compare->add_flag("--json", cmp.json, "Print one JSON object on stdout instead of the table");
   compare->add_option("--seams", cmp.seams,
                       "T1,T2,...: frames where later time subsets of OTHER start (FILE: the K = 1 run); adds seam jitter");
@@ -238,6 +257,20 @@ int main(int argc, char** argv) {
   FarmCommands farm;
   add_farm_commands(app, farm);
 
+  // Options that do not apply together (those that depend on the scene's mode: simulate_command.cpp).
+  const auto check_option_pairs = [&] {
+    using pd::InputError;
+    if (*export_cmd && exp.rest && !exp.prolong && exp.level >= 0)
+      throw InputError("--level: does not apply to --rest alone (it writes every level); allowed: with --prolong");
+    if (*farm.submit && f_count(farm.submit, "--subsets") && farm.sub.preview_only)
+      throw InputError("--subsets: does not apply with --preview-only (give it to pd refine, which adds the "
+                       "refinement levels)");
+    if (*farm.run && farm.ru.preview_only && f_count(farm.run, "--subsets"))
+      throw InputError("--subsets: does not apply with --preview-only (no refinement level is run)");
+    if (*farm.status && f_count(farm.status, "--interval") && !farm.st.watch && !farm.st.wait)
+      throw InputError("--interval: does not apply without --watch or --wait");
+  };
+
   if (argc < 2) {  // bare `pd`: show what it can do, and fail (nothing was done)
     std::fputs(app.help().c_str(), stderr);
     return 2;
@@ -247,11 +280,13 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help
     // A bad command line is bad input like any other: same message prefix and exit code.
-    std::fprintf(stderr, "pd: error: %s\nRun with --help for more information.\n", e.what());
+    // One line (see cli_text.h); --help lists the options.
+    std::fprintf(stderr, "pd: error: %s\n", pd::cli::parse_error_text(e).c_str());
     return 2;
   }
 
   try {
+    check_option_pairs();
     if (*simulate) return pd::cli::simulate(sim);
     if (*export_cmd) return pd::cli::export_frames(exp);
     if (*hierarchy) return pd::cli::hierarchy(hier);
@@ -260,11 +295,15 @@ int main(int argc, char** argv) {
     if (*keys) return pd::cli::keys(keys_args);
     if (const int code = farm.dispatch(); code >= 0) return code;
   } catch (const pd::InputError& e) {
-    std::fprintf(stderr, "pd: error: %s\n", e.what());
-    return 2;
+    std::fprintf(stderr, "pd: error: %s\n", pd::cli::one_line(e.what()).c_str());
+    exit_without_hdf5_cleanup(2);
+  } catch (const pd::StateDiverged& e) {
+    // Not bad input (the scene was valid) nor a bug: the shot is beyond what the solver can do.
+    std::fprintf(stderr, "pd: error: %s\n", pd::cli::one_line(e.what()).c_str());
+    exit_without_hdf5_cleanup(3);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "pd: internal error: %s\n", e.what());
-    return 1;
+    std::fprintf(stderr, "pd: internal error: %s\n", pd::cli::one_line(e.what()).c_str());
+    exit_without_hdf5_cleanup(1);
   }
   return 1;
 }

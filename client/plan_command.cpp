@@ -16,7 +16,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "cli_text.h"
 #include "farm/makespan.h"
+#include "output_files.h"
 #include "farm/task_graph.h"
 #include "store/frame_store.h"
 #include "util/input_error.h"
@@ -39,12 +41,12 @@ std::vector<int> parse_workers(const std::string& list) {
     const long v = s.empty() ? 0 : std::strtol(s.c_str(), &stop, 10);
     if (s.empty() || s.find_first_not_of("0123456789") != std::string::npos || errno == ERANGE ||
         v > std::numeric_limits<int>::max())
-      throw InputError("plan: --workers: '" + s + "' is not a positive integer (in '" + list + "')");
-    if (v < 1) throw InputError("plan: --workers: must be >= 1, got " + s);
+      throw InputError("plan: --workers: '" + echo(s) + "' is not a positive integer (in '" + echo(list) + "')");
+    if (v < 1) throw InputError("plan: --workers: must be >= 1, got " + echo(s));
     out.push_back(static_cast<int>(v));
   }
   if (out.empty() || (!list.empty() && list.back() == ','))
-    throw InputError("plan: --workers: expected a comma-separated list of worker counts, got '" + list + "'");
+    throw InputError("plan: --workers: expected a comma-separated list of worker counts, got '" + echo(list) + "'");
   return out;
 }
 
@@ -179,21 +181,28 @@ CLI::App* add_plan_subcommand(CLI::App& app, PlanArgs& args) {
   cmd->add_option("file", args.file, "Frame file of a finished progressive run (pd simulate --mode progressive)")
       ->required();
   cmd->add_option("--workers", args.workers, "Comma-separated worker counts to predict (default 1,2,8,32,128)");
-  cmd->add_option("--subsets", args.subsets, "Time subsets K per refinement level (default 1)");
-  cmd->add_option("--preview-chunk", args.preview_chunk, "Frames per preview task (default 0: min(50, N))");
+  const CLI::Validator seconds = decimal_real(0.0, false, 1e9, "seconds, >= 0 and <= 1e9");
+  cmd->add_option("--subsets", args.subsets, "Time subsets K per refinement level (default 1)")
+      ->transform(decimal_integer(1, 2147483647));
+  cmd->add_option("--preview-chunk", args.preview_chunk, "Frames per preview task (default 0: min(50, N))")
+      ->transform(decimal_integer(0, kMaxFrames));
   cmd->add_option_function<double>(
       "--vertical-start-seconds", [&args](const double& s) { args.vertical_start_seconds = s; },
       "Seconds of one vertical start (safe upsampling) of a subset k >= 2, every level; frame files do not "
-      "measure it: without this option it is ASSUMED to be 2 x the level's step cost");
+      "measure it: without this option it is ASSUMED to be 2 x the level's step cost")
+      ->transform(seconds);
   cmd->add_option("--hierarchy-seconds", args.hierarchy_seconds,
-                  "Seconds of the hierarchy task (not in frame files; pd hierarchy prints it; default 0)");
-  cmd->add_option("--dispatch-seconds", args.dispatch_seconds, "Overhead of every task in seconds (default 0)");
+                  "Seconds of the hierarchy task (not in frame files; pd hierarchy prints it; default 0)")
+      ->transform(seconds);
+  cmd->add_option("--dispatch-seconds", args.dispatch_seconds, "Overhead of every task in seconds (default 0)")
+      ->transform(seconds);
   cmd->add_flag("--json", args.json, "Print one JSON object instead of the table");
   return cmd;
 }
 
 int plan(const PlanArgs& args) {
   validate(args);
+  check_input_file(args.file, "frame file");
   const std::vector<int> workers = parse_workers(args.workers);
   const Measured m = measure(args.file);
 

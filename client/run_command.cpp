@@ -16,6 +16,7 @@
 #include "commands.h"
 #include "farm_client.h"
 #include "local_farm.h"
+#include "output_files.h"
 #include "progress.h"
 #include "util/input_error.h"
 
@@ -185,6 +186,8 @@ int run_job(const RunArgs& args, const protocol::SubmitJob& submit, LocalFarm& f
 
 int run(const RunArgs& args) {
   // Everything that can be refused is checked before a process is started.
+  check_scene_files(args.scene);
+  check_output_file(args.out, "--out", {args.scene});
   protocol::SubmitJob submit;
   submit.scene = read_job_scene(args.scene, args.levels);
   submit.preview_only = args.preview_only;

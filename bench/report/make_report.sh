@@ -202,13 +202,13 @@ for name in "${scene_list[@]}"; do
   ref="$work/$name.reference.h5"
   seams=""
   run_one "$name/reference" "$name" reference "$finest" 0 "$n" "$ref" "" \
-    "$pd" simulate "$ref_scene" --out "$ref" --mode direct --level "$finest" --frames "$n" --quiet
+    "$pd" simulate "$ref_scene" --out "$ref" --mode direct --level "$finest" --frames "$n" --quiet --allow-unconverged
   [[ -f "$ref" ]] || continue
   run_one "$name/progressive" "$name" progressive all 0 "$n" "$work/$name.progressive.h5" "$ref" \
-    "$pd" simulate "$src" --out "$work/$name.progressive.h5" --mode progressive --frames "$n" --quiet
+    "$pd" simulate "$src" --out "$work/$name.progressive.h5" --mode progressive --frames "$n" --quiet --allow-unconverged
   for ((l = 0; l < levels; ++l)); do
     run_one "$name/direct-$l" "$name" direct "$l" 0 "$n" "$work/$name.direct-$l.h5" "$ref" \
-      "$pd" simulate "$src" --out "$work/$name.direct-$l.h5" --mode direct --level "$l" --frames "$n" --quiet
+      "$pd" simulate "$src" --out "$work/$name.direct-$l.h5" --mode direct --level "$l" --frames "$n" --quiet --allow-unconverged
   done
 done
 

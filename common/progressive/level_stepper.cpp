@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <string>
 
 #include "physics/contact/friction.h"
 #include "physics/inertia.h"
@@ -98,6 +100,30 @@ int LevelStepper::move_pins(double t_end, Eigen::VectorXd& x, const NewtonSettin
   return rounds;
 }
 
+void LevelStepper::check_state(int frame, const Eigen::VectorXd& x, const Eigen::VectorXd& v) const {
+  const auto fail = [&](Eigen::Index vertex, const std::string& what) {
+    const auto& off = sys_.object_offsets;
+    std::size_t k = 0;
+    while (k + 1 < off.size() && off[k + 1] <= vertex) ++k;
+    const std::string object = k < sys_.object_names.size() ? sys_.object_names[k] : "?";
+    throw StateDiverged("frame " + std::to_string(frame) + ": the simulation diverged: object '" + object +
+                        "' vertex " + std::to_string(vertex - (k < off.size() ? off[k] : 0)) + ": " + what);
+  };
+  char text[160];
+  for (Eigen::Index i = 0; i < x.size() / 3; ++i) {
+    const Vec3 p = x.segment<3>(3 * i), u = v.segment<3>(3 * i);
+    if (!p.allFinite() || !u.allFinite()) fail(i, "position or velocity is not finite");
+    if (p.cwiseAbs().maxCoeff() > kDivergedDistance) {
+      std::snprintf(text, sizeof text, "a coordinate of %.3g m, beyond %.0g m", p.cwiseAbs().maxCoeff(), kDivergedDistance);
+      fail(i, text);
+    }
+    if (u.norm() > kDivergedSpeed) {
+      std::snprintf(text, sizeof text, "a speed of %.3g m/s, beyond %.0g m/s", u.norm(), kDivergedSpeed);
+      fail(i, text);
+    }
+  }
+}
+
 FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v, const StepInput& input) {
   const auto t0 = std::chrono::steady_clock::now();
   const double t_end = (frame + 1) * h_;
@@ -148,6 +174,7 @@ FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v
   }
   accumulate(report, pins_report);
   v = (x - x_start) / h_;
+  check_state(frame + 1, x, v);
 
   FrameRecord r = record(frame + 1, x, v);
   r.newton = std::move(report);

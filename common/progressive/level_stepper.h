@@ -3,6 +3,7 @@
 //   1/(2h^2) ||x - (x_t + h v_t)||_M^2 + E(x)
 // with projected Newton, and reports what each frame cost and where its energy went.
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -14,6 +15,18 @@
 #include "solver/newton.h"
 
 namespace pd {
+
+// A step ended in a state no shot can reach: a non-finite position or velocity, a vertex beyond
+// kDivergedDistance from the origin or faster than kDivergedSpeed. what() names the frame, the
+// object, the vertex and the value; the step's frame is not stored (the run stops with the frames
+// before it). The bounds sit 100x beyond the scene format's own limits (docs/scene-format.md: a
+// 20 km scene, speeds up to 1000 m/s), so no scene the format accepts reaches them by its motion.
+class StateDiverged : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+constexpr double kDivergedDistance = 1e6;  // m, any coordinate
+constexpr double kDivergedSpeed = 1e5;     // m/s, any vertex
 
 // Statistics of one stored frame; frame 0 carries the initial state's energies and zero iterations.
 struct FrameRecord {
@@ -46,10 +59,12 @@ class LevelStepper {
   // Frame 0: the initial state.
   FrameRecord initial_frame() const;
   // Advances from (x, v) at frame `frame` to frame + 1, updating x and v (v = (x_new - x) / h).
+  // Throws StateDiverged when the new state is out of bounds (above).
   FrameRecord step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v, const StepInput& input = {});
 
  private:
   FrameRecord record(int frame, const Eigen::VectorXd& x, const Eigen::VectorXd& v) const;
+  void check_state(int frame, const Eigen::VectorXd& x, const Eigen::VectorXd& v) const;
   // Moves the pinned vertices to where their scripts put them at the end of the step without ever
   // passing through contact; returns the number of augmented-Lagrangian solves it needed (0 when
   // the straight move was collision-free), or -1 if the pins could not reach their targets.

@@ -46,6 +46,29 @@ TEST(LevelStepper, FreeFallMatchesClosedFormImplicitEuler) {
   }
 }
 
+// A state no shot reaches stops the run by name. A free fall at the scene format's largest gravity
+// (1000 m/s^2) and time step (1 s) has x_n = x_0 + h^2 g n (n + 1) / 2: past kDivergedDistance
+// (1e6 m) at n = 45 (1.035e6 m), still inside at n = 44 (0.99e6 m).
+TEST(LevelStepper, AStateBeyondTheDivergenceBoundsStopsTheRunNamingFrameObjectAndValue) {
+  ASSERT_EQ(kDivergedDistance, 1e6);
+  Scene scene = make_scene(1.0, 50, Vec3(0, -1000, 0));
+  scene.objects.push_back(make_object("sheet", make_rectangle(0.5, 0.5, 2, 2), test::cotton()));
+  SceneSystem sys = build_scene_system(scene);
+  LevelStepper stepper(sys, scene.solver, scene.time_step);
+  Eigen::VectorXd x = sys.x0, v = sys.v0;
+  int stepped = 0;
+  std::string message;
+  try {
+    for (int n = 0; n < scene.frames; ++n, ++stepped) stepper.step(n, x, v);
+  } catch (const StateDiverged& e) {
+    message = e.what();
+  }
+  EXPECT_EQ(stepped, 44);  // frames 1..44 solved, frame 45 refused
+  EXPECT_EQ(message.rfind("frame 45: the simulation diverged: object 'sheet' vertex 0: a coordinate of 1.0", 0), 0u)
+      << message;
+  EXPECT_NE(message.find("beyond 1e+06 m"), std::string::npos) << message;
+}
+
 TEST(LevelStepper, ClampedStripSettlesToPlateTheoryDeflection) {
   // scenes/strip-cantilever.json: a strip clamped by two pinned vertex columns (one column would be a
   // hinge), Poisson ratio 0 so that plate and beam theory agree. Small-deflection theory: tip
