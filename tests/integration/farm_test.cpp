@@ -103,14 +103,23 @@ std::set<std::string> task_workers(const json& job) {
   return names;
 }
 
-TEST_F(FarmTest, TwoWorkersOneSubsetGiveTheFramesOfPdSimulateBitForBitAndIntersectionFree) {
-  Farm& farm = start_farm(2, "farm_k1");
-  const std::string scene = scene_path("cube-trampoline.json"), ref_path = farm.dir() + "/ref.h5";
-  const int64_t job = submit(farm, {scene, "--frames", std::to_string(kFullFrames), "--subsets", "1"});
-  test::Process ref = start_reference(scene, ref_path, kFullFrames);
+// Submits `scene` for `frames` frames in `subsets` time subsets with its reference pd simulate
+// (progressive, one process) running beside it, waits for both, and fetches the job's frames:
+// DIR/job.h5 and DIR/ref.h5, DIR the farm's folder. Returns the job id.
+int64_t run_beside_reference(Farm& farm, const std::string& scene, int frames, int subsets) {
+  const std::string ref_path = farm.dir() + "/ref.h5";
+  const int64_t job = submit(farm, {scene, "--frames", std::to_string(frames), "--subsets", std::to_string(subsets)});
+  test::Process ref = start_reference(scene, ref_path, frames);
   wait_until_done(farm, job, kLongJob);
   fetch(farm, job, farm.dir() + "/job.h5");
   finish_reference(ref, ref_path, kLongJob);
+  return job;
+}
+
+TEST_F(FarmTest, TwoWorkersOneSubsetGiveTheFramesOfPdSimulateBitForBitAndIntersectionFree) {
+  Farm& farm = start_farm(2, "farm_k1");
+  const std::string ref_path = farm.dir() + "/ref.h5";
+  const int64_t job = run_beside_reference(farm, scene_path("cube-trampoline.json"), kFullFrames, 1);
 
   const json status = job_status(farm, job);
   expect_every_level_complete(status, kFullFrames);
@@ -187,12 +196,8 @@ TEST_F(FarmTest, TwoSubsetsKeepEveryFrameIntersectionFreeAndEqualToOneSubsetBefo
 TEST_F(FarmTest, ASubsetWhoseVerticalStartIsRefusedContinuesHorizontallyAndTheJobEndsDone) {
   constexpr int kFrames = 20;
   Farm& farm = start_farm(2, "farm_refused_start");
-  const std::string scene = scene_path("flag.json"), ref_path = farm.dir() + "/ref.h5";
-  const int64_t job = submit(farm, {scene, "--frames", std::to_string(kFrames), "--subsets", "2"});
-  test::Process ref = start_reference(scene, ref_path, kFrames);
-  wait_until_done(farm, job, kLongJob);
-  fetch(farm, job, farm.dir() + "/job.h5");
-  finish_reference(ref, ref_path, kLongJob);
+  const std::string ref_path = farm.dir() + "/ref.h5";
+  const int64_t job = run_beside_reference(farm, scene_path("flag.json"), kFrames, 2);
 
   const json status = job_status(farm, job);
   expect_every_level_complete(status, kFrames);

@@ -1,7 +1,10 @@
 #pragma once
 // Shared by the scene-file tests: a small valid scene to break one thing at a time, and checks that
 // parsing fails with one InputError naming the file and the key path.
+#include <filesystem>
+#include <fstream>
 #include <initializer_list>
+#include <random>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -15,6 +18,32 @@ namespace pd::test {
 using nlohmann::json;
 
 inline const std::string kFile = "shots/test-scene.json";  // the name messages must carry
+
+// A fresh directory under the system temp folder, removed at the end of the test.
+class TempDir {
+ public:
+  TempDir()
+      : path_(std::filesystem::temp_directory_path() / ("pd-scene-test-" + std::to_string(std::random_device{}()))) {
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  std::string path() const { return path_.string(); }
+  // Writes `text` (bytes as given) to path()/name, creating folders; returns the file's path.
+  std::string write(const std::string& name, const std::string& text) const {
+    const std::filesystem::path p = path_ / name;
+    std::filesystem::create_directories(p.parent_path());
+    std::ofstream(p, std::ios::binary) << text;
+    return p.string();
+  }
+
+ private:
+  std::filesystem::path path_;
+};
 
 // A small valid scene; tests break one thing at a time.
 inline json valid_scene() {
