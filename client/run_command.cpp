@@ -18,6 +18,7 @@
 #include "local_farm.h"
 #include "output_files.h"
 #include "progress.h"
+#include "stop_signals.h"
 #include "util/input_error.h"
 
 namespace pd::cli {
@@ -25,35 +26,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-volatile std::sig_atomic_t g_stop_requested = 0;
-
-extern "C" void on_stop_signal(int) { g_stop_requested = 1; }
-
-// Installs the SIGINT / SIGTERM handler for the life of the command, and restores the old ones. No
-// SA_RESTART: a blocking wait returns EINTR so the loop notices the flag promptly.
-class StopSignals {
- public:
-  StopSignals() {
-    g_stop_requested = 0;
-    struct sigaction sa = {};
-    sa.sa_handler = on_stop_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old_int_);
-    sigaction(SIGTERM, &sa, &old_term_);
-  }
-  ~StopSignals() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-  }
-  StopSignals(const StopSignals&) = delete;
-  StopSignals& operator=(const StopSignals&) = delete;
-
- private:
-  struct sigaction old_int_ = {}, old_term_ = {};
-};
-
 void throw_if_stop_requested() {
-  if (g_stop_requested != 0) throw Interrupted();
+  if (StopSignals::received() != 0) throw Interrupted();
 }
 
 // Sleeps `total`, in short steps so that a stop request ends it early.
@@ -199,10 +173,10 @@ int run(const RunArgs& args) {
   if (args.workers < 1) throw InputError("--workers: must be >= 1, got " + std::to_string(args.workers));
   const FarmBinaries binaries = find_farm_binaries();
 
-  StopSignals signals;
+  const StopSignals signals(0);  // no SA_RESTART: waits return EINTR
   FarmFolder folder(args.keep_farm);
   LocalFarm farm(binaries);
-  farm.set_stop_flag(&g_stop_requested);
+  farm.set_stop_flag(StopSignals::flag());
   try {
     farm.start(folder.path(), args.workers);
     const int code = run_job(args, submit, farm);

@@ -10,6 +10,7 @@
 #include "commands.h"
 #include "output_files.h"
 #include "progress.h"
+#include "stop_signals.h"
 
 #include "progressive/direct_run.h"
 #include "progressive/level_stepper.h"
@@ -22,38 +23,12 @@ namespace pd::cli {
 
 namespace {
 
-// SIGINT / SIGTERM during a run: the run stops after the frame being solved, as after an error, so
-// that the frames stored so far are kept in OUT instead of a stray OUT.partial. A second signal ends
-// the process at once (SA_RESETHAND: the default action).
-volatile std::sig_atomic_t g_stop_signal = 0;
-void on_simulate_stop_signal(int sig) { g_stop_signal = sig; }
-
-class StopOnSignals {
- public:
-  StopOnSignals() {
-    g_stop_signal = 0;
-    struct sigaction sa = {};
-    sa.sa_handler = on_simulate_stop_signal;
-    sa.sa_flags = SA_RESETHAND | SA_RESTART;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old_int_);
-    sigaction(SIGTERM, &sa, &old_term_);
-  }
-  ~StopOnSignals() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-  }
-  StopOnSignals(const StopOnSignals&) = delete;
-  StopOnSignals& operator=(const StopOnSignals&) = delete;
-
- private:
-  struct sigaction old_int_ = {}, old_term_ = {};
-};
-
+// SIGINT / SIGTERM during a run stop it after the frame being solved, as after an error, so that
+// the frames stored so far are kept in OUT instead of a stray OUT.partial.
 // Called after every stored frame.
 void stop_if_signalled(int frame) {
-  if (g_stop_signal != 0)
-    throw InputError(std::string("interrupted by ") + (g_stop_signal == SIGINT ? "SIGINT" : "SIGTERM") +
+  if (const int sig = StopSignals::received(); sig != 0)
+    throw InputError(std::string("interrupted by ") + (sig == SIGINT ? "SIGINT" : "SIGTERM") +
                      " after frame " + std::to_string(frame));
 }
 
@@ -218,7 +193,7 @@ int simulate(const SimulateArgs& given) {
   check_replaceable(args.out, "--out", args.force, is_frame_file(args.out), "a frame file");
 
   PartialOutput out(args.out, "--out");
-  const StopOnSignals signals;
+  const StopSignals signals(SA_RESTART | SA_RESETHAND);
   int stored = 0;  // frames t >= 1 written to out.path()
   int code = 0;
   try {

@@ -103,9 +103,9 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
     assemblies_since_refresh_ = 0;
   }
   // A diagonal block as a one-vertex element, an off-diagonal block (i > j) as the (i, j) block of a
-  // two-vertex element whose other blocks are zero. The block list depends only on the meshes and the
-  // prolongation's sparsity pattern (J's is fixed: every fine vertex's 3x9 block), so the stencil sequence repeats from one assembly to the next and the coarse pattern is analysed
-  // once.
+  // two-vertex element whose other blocks are zero. The block list depends only on the meshes and
+  // the prolongation's sparsity pattern (J's is fixed: every fine vertex's 3x9 block), so the stencil
+  // sequence repeats from one assembly to the next and the coarse pattern is analysed once.
   for (const GalerkinBlock& b : blocks_) {
     if (b.i == b.j) {
       hessian.add<1>({b.i}, b.block);
@@ -118,7 +118,8 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
 }
 
 // The fine Hessian (each element block projected as asked), made full from its stored lower
-// triangle, carried through the prolongation's Jacobian (U when frozen), and cut into 3x3 vertex blocks of its lower block triangle.
+// triangle, carried through the prolongation's Jacobian (U when frozen), and cut into 3x3 vertex
+// blocks of its lower block triangle.
 void ProlongedTerm::compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection) const {
   fine_hessian_.begin(3 * state_->num_fine());
   fine_->add_hessian(state_->fine_positions(x), projection, fine_hessian_);
