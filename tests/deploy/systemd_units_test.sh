@@ -198,8 +198,16 @@ for i in 1 2; do
   PIDS+=($!)
 done
 
-# One thread per worker: the unit's Environment= reached the process.
+# One thread per worker: the unit's Environment= reached the process. $! is the pid of `env`, which
+# sets the variables and then execs the worker: /proc/PID/environ shows the new environment only
+# after that exec, so wait (bounded) until the pid runs the worker binary before reading it.
 for pid in "${WORKER_PIDS[@]}"; do
+  for _ in $(seq 50); do
+    [ "$(readlink "/proc/$pid/exe" 2>/dev/null)" = "$(readlink -f "$WORKER")" ] && break
+    sleep 0.1
+  done
+  [ "$(readlink "/proc/$pid/exe" 2>/dev/null)" = "$(readlink -f "$WORKER")" ] ||
+    fail "worker $pid is not running $WORKER after 5 s: $(cat "$TMP"/worker-*.log)"
   for v in OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1; do
     tr '\0' '\n' <"/proc/$pid/environ" | grep -qx "$v" || fail "worker $pid has no $v in its environment"
   done
