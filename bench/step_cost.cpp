@@ -5,12 +5,18 @@
 //
 //   pd_bench_step_cost            # 31, 77, 157 cells per side: 1024, 6084, 24964 vertices
 //   pd_bench_step_cost 50 100     # other sizes
+//   pd_bench_step_cost --threads 2 157   # element loops on 2 threads (default: every core)
+// The last column is a hash of the final positions' bytes: equal hashes for two thread counts mean
+// the same result bit for bit.
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "geometry/shapes.h"
 #include "progressive/level_stepper.h"
+#include "util/parallel.h"
 #include "util/process_setup.h"
 
 using namespace pd;
@@ -18,13 +24,19 @@ using namespace pd;
 int main(int argc, char** argv) {
   limit_openmp_threads(argv);
   std::vector<int> sizes = {31, 77, 157};
-  if (argc > 1) {
-    sizes.clear();
-    for (int i = 1; i < argc; ++i) sizes.push_back(std::atoi(argv[i]));
+  int first_size = 1;
+  if (argc > 2 && std::string(argv[1]) == "--threads") {
+    set_element_threads(std::atoi(argv[2]));
+    first_size = 3;
   }
+  if (argc > first_size) {
+    sizes.clear();
+    for (int i = first_size; i < argc; ++i) sizes.push_back(std::atoi(argv[i]));
+  }
+  std::printf("element threads: %d\n", effective_element_threads());
   const int steps = 5;
-  std::printf("%8s %8s %6s %10s %10s %10s %10s %10s %10s\n", "vertices", "faces", "steps", "its/step",
-              "assemble", "analyse", "factorize", "solve", "step");
+  std::printf("%8s %8s %6s %10s %10s %10s %10s %10s %10s %18s\n", "vertices", "faces", "steps", "its/step",
+              "assemble", "analyse", "factorize", "solve", "step", "x hash");
   std::printf("%8s %8s %6s %10s %10s %10s %10s %10s %10s\n", "", "", "", "", "ms/it", "ms/step", "ms/it",
               "ms/it", "ms/step");
   for (int cells : sizes) {
@@ -59,9 +71,13 @@ int main(int argc, char** argv) {
       solve += r.newton.solve_seconds;
       total += r.seconds;
     }
-    std::printf("%8d %8d %6d %10.1f %10.2f %10.2f %10.2f %10.2f %10.1f\n", sys.rest.num_vertices(),
+    // FNV-1a over the bytes of x.
+    uint64_t hash = 1469598103934665603ull;
+    const auto* bytes = reinterpret_cast<const unsigned char*>(x.data());
+    for (size_t i = 0; i < sizeof(double) * static_cast<size_t>(x.size()); ++i) hash = (hash ^ bytes[i]) * 1099511628211ull;
+    std::printf("%8d %8d %6d %10.1f %10.2f %10.2f %10.2f %10.2f %10.1f %18llx\n", sys.rest.num_vertices(),
                 sys.rest.num_faces(), steps, double(its) / steps, 1e3 * assemble / its, 1e3 * analyse / steps,
-                1e3 * factorize / its, 1e3 * solve / its, 1e3 * total / steps);
+                1e3 * factorize / its, 1e3 * solve / its, 1e3 * total / steps, static_cast<unsigned long long>(hash));
   }
   return 0;
 }

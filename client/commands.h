@@ -26,6 +26,7 @@ struct SimulateArgs {
   // Steps that stop before convergence make pd simulate exit 3 (frames kept); with this, 0 and a
   // warning.
   bool allow_unconverged = false;
+  int threads = 0;  // element-loop threads (util/parallel.h); 0: every core
 };
 int simulate(const SimulateArgs& args);
 
@@ -139,6 +140,7 @@ struct RunArgs {
   int frames = 0;
   std::string hessian = "lagged";
   std::string keep_farm;   // farm folder to use and keep; empty: a temporary one, removed at the end
+  int threads = 0;         // element-loop threads per worker; 0: this machine's cores / workers (>= 1)
 };
 int run(const RunArgs& args);
 

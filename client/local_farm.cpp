@@ -135,7 +135,7 @@ pid_t LocalFarm::spawn(const std::vector<std::string>& argv, const std::string& 
   return pid;
 }
 
-void LocalFarm::start(const std::string& dir, int n_workers, std::chrono::milliseconds startup) {
+void LocalFarm::start(const std::string& dir, int n_workers, int worker_threads, std::chrono::milliseconds startup) {
   if (!children_.empty()) throw std::logic_error("LocalFarm::start called twice");
   dir_ = dir;
   std::error_code ec;
@@ -164,7 +164,9 @@ void LocalFarm::start(const std::string& dir, int n_workers, std::chrono::millis
   for (int k = 1; k <= n_workers; ++k) {
     const std::string name = "w" + std::to_string(k);
     const std::string worker_log = dir_ + "/worker-" + std::to_string(k) + ".log";
-    const pid_t w = spawn({binaries_.worker, "--connect", workers_, "--name", name}, worker_log, -1);
+    std::vector<std::string> argv = {binaries_.worker, "--connect", workers_, "--name", name};
+    if (worker_threads > 0) argv.insert(argv.end(), {"--threads", std::to_string(worker_threads)});
+    const pid_t w = spawn(argv, worker_log, -1);
     children_.push_back({"pd-worker " + name, worker_log, w, true, false});
   }
 }

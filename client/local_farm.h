@@ -49,7 +49,9 @@ class LocalFarm {
   // first stdout line {"event":"listening","workers":...,"clients":...}, then starts n_workers
   // `pd-worker --connect <workers> --name w<k>` (k = 1..n, output to DIR/worker-<k>.log).
   // Throws std::runtime_error with the end of the scheduler's log when it fails to start.
-  void start(const std::string& dir, int n_workers, std::chrono::milliseconds startup = std::chrono::seconds(10));
+  // worker_threads > 0 adds `--threads worker_threads` to every worker (0: the workers' default).
+  void start(const std::string& dir, int n_workers, int worker_threads = 0,
+             std::chrono::milliseconds startup = std::chrono::seconds(10));
 
   const std::string& clients_endpoint() const { return clients_; }
   const std::string& workers_endpoint() const { return workers_; }

@@ -171,6 +171,9 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
   f.run->add_option("--frames", f.ru.frames, "Frames instead of the scene's count")->transform(frame_count());
   f.run->add_option("--hessian", f.ru.hessian, "Hessian of the prolonged elasticity")
       ->transform(hessian_kind());
+  f.run->add_option("--threads", f.ru.threads,
+                    "Element-loop threads of each worker (default: this machine's cores / --workers, at least 1)")
+      ->transform(count_at_least_one());
   f.run->add_option("--keep-farm", f.ru.keep_farm,
                     "Farm folder to use and keep (farm.sqlite, jobs/, logs); default: a temporary one, removed");
 }
@@ -207,6 +210,10 @@ int main(int argc, char** argv) {
   simulate->add_option("--hessian", sim.hessian,
                        "progressive only: Hessian of the prolonged elasticity (default lagged)")
       ->transform(hessian_kind());
+  simulate->add_option("--threads", sim.threads,
+                       "Threads for the element loops (energies, Hessians, contact pairs; default: every core); "
+                       "the frames are bit for bit the same for every count")
+      ->transform(count_at_least_one());
 
   pd::cli::ExportArgs exp;
   auto* export_cmd = app.add_subcommand("export", "Write the frames of a frame file for other tools");

@@ -20,6 +20,7 @@
 #include "progress.h"
 #include "stop_signals.h"
 #include "util/input_error.h"
+#include "util/parallel.h"
 
 namespace pd::cli {
 namespace {
@@ -178,7 +179,9 @@ int run(const RunArgs& args) {
   LocalFarm farm(binaries);
   farm.set_stop_flag(StopSignals::flag());
   try {
-    farm.start(folder.path(), args.workers);
+    // The workers share this machine: by default each gets an equal share of its cores.
+    const int threads = args.threads > 0 ? args.threads : std::max(1, effective_element_threads() / args.workers);
+    farm.start(folder.path(), args.workers, threads);
     const int code = run_job(args, submit, farm);
     farm.stop();
     return code;

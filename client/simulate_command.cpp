@@ -16,8 +16,9 @@
 #include "progressive/level_stepper.h"
 #include "progressive/progressive_run.h"
 #include "store/frame_store.h"
-#include "util/input_error.h"
 #include "scene/scene_file.h"
+#include "util/input_error.h"
+#include "util/parallel.h"
 
 namespace pd::cli {
 
@@ -187,6 +188,7 @@ int simulate(const SimulateArgs& given) {
   const bool mode_given = !args.mode.empty();
   if (!mode_given) args.mode = scene.progressive ? "progressive" : "direct";
   check_mode_options(args, mode_given);
+  set_element_threads(args.threads);
   std::vector<std::string> inputs = scene_obj_paths(args.scene, scene.json_text);
   inputs.push_back(args.scene);
   check_output_file(args.out, "--out", inputs);

@@ -15,6 +15,7 @@ PACKAGES=(
   libhdf5-dev            # frame store
   libgtest-dev           # tests
   libcli11-dev           # the pd command line
+  libtbb-dev             # oneTBB: element loops on every core (common/util/parallel.h)
   iproute2               # ip netns + veth: the CURVE test on a non-loopback address (tests/integration/)
   slurm-wlm munge        # Slurm workers (deploy/slurm/): the test starts slurmctld + slurmd + munged on localhost
   systemd                # systemd-analyze verify of deploy/systemd/'s units (tests/deploy/)

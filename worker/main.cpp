@@ -15,6 +15,7 @@
 #include "farm/curve.h"
 #include "farm/messaging.h"
 #include "util/input_error.h"
+#include "util/parallel.h"
 #include "util/process_setup.h"
 #include "worker/worker.h"
 
@@ -53,6 +54,11 @@ int main(int argc, char** argv) {
                  "Exit (code 3) once nothing has come from the scheduler for this many seconds (0: retry for ever; "
                  "the Slurm job script sets it, so that no allocation waits for a scheduler that is gone)")
       ->check(CLI::Range(0.0, 1e7));
+  int threads = 0;
+  app.add_option("--threads", threads,
+                 "Threads for the element loops of a task (default 0: every core this process may use, i.e. "
+                 "its CPU affinity, which Slurm sets); the frames are the same bit for bit for every count")
+      ->check(CLI::Range(0, 4096));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -60,6 +66,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "pd-worker: error: %s\nRun with --help for more information.\n", e.what());
     return 2;
   }
+  pd::set_element_threads(threads);
   const std::string pid = std::to_string(getpid());
   options.slurm_job = slurm_job_from_environment();
   if (options.name.empty() && !options.slurm_job.empty()) options.name = "slurm-" + options.slurm_job;

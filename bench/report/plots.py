@@ -196,7 +196,7 @@ def plot_farm(runs, out_dir):
     else:
         right.text(0.5, 0.5, "no seam jitter (pd compare --json\n--seams missing, or K = 1 only)", ha="center",
                    va="center", transform=right.transAxes, fontsize=8)
-    fig.suptitle("farm: wall time and seam jitter against K (max over levels)")
+    fig.suptitle("farm: wall time and seam jitter against K (the level with the largest seam d)")
     return save(fig, out_dir, "farm_K.png")
 
 

@@ -180,12 +180,15 @@ def scatter_points(scene_runs: List[Run]) -> List[Point]:
 
 @dataclass
 class FarmRow:
-    """One farm run (pd run --workers 2 --subsets K) and its seam jitter against K = 1, over levels."""
+    """One farm run (pd run --workers 2 --subsets K) and its seam jitter against K = 1, on the level
+    with the largest seam d (every figure of the row is that level's, so the ratio is the ratio of
+    the two d columns)."""
     k: int
     wall_s: float
-    ratio: float         # max over levels of max seam d / median other d; NaN when none is finite
-    max_seam_d: float    # m per frame^2 (second differences, not divided by h^2), max over levels
-    median_other: float  # the median other d of the level giving max_seam_d
+    level: int           # the level giving max_seam_d (-1 when no level has seams)
+    ratio: float         # that level's max seam d / median other d; NaN when not finite
+    max_seam_d: float    # m per frame^2 (second differences, not divided by h^2)
+    median_other: float  # that level's median d over the frames after the first seam that are not seams
     note: str            # pd compare's ratio_note of that level, when its ratio is null
 
 
@@ -197,10 +200,10 @@ def farm_series(runs: List[Run]) -> Dict[str, List[FarmRow]]:
         for r in sorted((r for r in scene_runs if r.kind == "farm" and r.status != "failed"), key=lambda r: r.subsets):
             entries = [j for j in ((r.compare or {}).get("seam_jitter") or []) if isinstance(j, dict)]
             num = lambda j, key: float(j[key]) if isinstance(j.get(key), (int, float)) else math.nan
-            ratios = [num(j, "ratio") for j in entries if math.isfinite(num(j, "ratio"))]
             worst = max(entries, key=lambda j: num(j, "max_seam_d_m") if math.isfinite(num(j, "max_seam_d_m"))
                         else -1.0, default=None)
-            rows.append(FarmRow(r.subsets, r.wall_s, max(ratios) if ratios else math.nan,
+            rows.append(FarmRow(r.subsets, r.wall_s, int(worst.get("level", -1)) if worst else -1,
+                                num(worst, "ratio") if worst else math.nan,
                                 num(worst, "max_seam_d_m") if worst else math.nan,
                                 num(worst, "median_other_d_m") if worst else math.nan,
                                 str(worst.get("ratio_note", "")) if worst and worst.get("ratio") is None else ""))

@@ -237,11 +237,14 @@ def write_page(out_dir, works, runs, images, farm_png, farm_series) -> str:
         lines += level_rows(scene, points)
     if farm_png:
         lines += ["", "## Farm: wall time and seam jitter against K", "", f"![farm](./{farm_png})", "",
-                  "| scene | K | wall s | max seam d (m/frame²) | median other d (m/frame²) | ratio (max over levels) |",
-                  "| --- | ---: | ---: | ---: | ---: | --- |"]
+                  "Each row's seam figures are those of the level with the largest seam d (its ratio is the ratio of "
+                  "the two d columns).", "",
+                  "| scene | K | wall s | level | max seam d (m/frame²) | median other d (m/frame²) | ratio |",
+                  "| --- | ---: | ---: | ---: | ---: | ---: | --- |"]
         for scene, rows in farm_series.items():
-            lines += [f"| {scene} | {r.k} | {r.wall_s:.2f} | {num(r.max_seam_d)} | {num(r.median_other)} | "
-                      f"{num(r.ratio) if math.isfinite(r.ratio) else (r.note or '–')} |" for r in rows]
+            lines += [f"| {scene} | {r.k} | {r.wall_s:.2f} | {r.level if r.level >= 0 else '–'} | {num(r.max_seam_d)} | "
+                      f"{num(r.median_other)} | {num(r.ratio) if math.isfinite(r.ratio) else (r.note or '–')} |"
+                      for r in rows]
     for scene, pngs in images.items():
         lines += ["", f"## {scene}", ""] + [f"![{p[:-4]}](./{p})" for p in pngs]
     path = os.path.join(out_dir, "README.md")

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "physics/element_loops.h"
+
 namespace pd {
 
 namespace {
@@ -196,28 +198,28 @@ Vec<12> HingeBending::gather(const Eigen::VectorXd& x, const Hinge& h) const {
   return xe;
 }
 
+// The three loops run on every element thread with thread-count-independent results
+// (physics/element_loops.h).
 double HingeBending::value(const Eigen::VectorXd& x) const {
-  double sum = 0.0;
-  for (size_t i = 0; i < hinges_.size(); ++i)
-    sum += hinge_bending_energy(gather(x, hinges_[i]), rest_[i], k_);
-  return sum;
+  return sum_element_energies(static_cast<int>(hinges_.size()), [&](int i) {
+    return hinge_bending_energy(gather(x, hinges_[i]), rest_[i], k_);
+  });
 }
 
 void HingeBending::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
-  for (size_t i = 0; i < hinges_.size(); ++i) {
-    const Vec<12> g = hinge_bending_gradient(gather(x, hinges_[i]), rest_[i], k_);
-    for (int a = 0; a < 4; ++a) grad.segment<3>(3 * hinges_[i].v[a]) += g.segment<3>(3 * a);
-  }
+  add_element_gradients<4>(
+      static_cast<int>(hinges_.size()), [&](int i) { return hinges_[i].v; },
+      [&](int i) { return hinge_bending_gradient(gather(x, hinges_[i]), rest_[i], k_); }, grad);
 }
 
 // Degenerate hinges still add their (zero) block so that the sequence of stencils, and with it the
 // sparsity pattern the factorization reuses, does not change when a triangle collapses.
 void HingeBending::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                                HessianAssembly& hessian) const {
-  for (size_t i = 0; i < hinges_.size(); ++i) {
-    const Mat<12> H = hinge_bending_hessian(gather(x, hinges_[i]), rest_[i], k_);
-    hessian.add<4>(hinges_[i].v, project_hessian<12>(H, projection));
-  }
+  add_element_hessians<4>(
+      static_cast<int>(hinges_.size()), [&](int i) { return hinges_[i].v; },
+      [&](int i) { return project_hessian<12>(hinge_bending_hessian(gather(x, hinges_[i]), rest_[i], k_), projection); },
+      hessian);
 }
 
 }  // namespace pd

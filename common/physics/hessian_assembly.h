@@ -8,11 +8,14 @@
 // values without sorting, and report that the sparsity pattern is unchanged so that the Cholesky
 // factorization can reuse its symbolic analysis.
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+
+#include "util/parallel.h"
 
 namespace pd {
 
@@ -26,17 +29,30 @@ class HessianAssembly {
   // Adds the element Hessian H (3N x 3N, rows/cols ordered as vertex verts[0] xyz, verts[1] xyz, ...).
   template <int N>
   void add(const std::array<int, N>& verts, const Eigen::Matrix<double, 3 * N, 3 * N>& H) {
-    stencil_.push_back(N);
-    for (int a = 0; a < N; ++a) stencil_.push_back(verts[a]);
-    for (int a = 0; a < N; ++a)
-      for (int b = 0; b < N; ++b) {
-        if (verts[a] < verts[b]) continue;  // lower triangle of the block structure only
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) {
-            const int r = 3 * verts[a] + i, c = 3 * verts[b] + j;
-            if (r >= c) values_.push_back(H(3 * a + i, 3 * b + j));
-          }
-      }
+    push_stencil<N>(verts);
+    const size_t first = values_.size();
+    values_.resize(first + lower_entry_count<N>(verts));
+    write_lower_entries<N>(verts, H, values_.data() + first);
+  }
+
+  // Adds `count` element Hessians at once: verts(e) -> std::array<int, N>, hessian(e) -> the 3N x 3N
+  // block, e in [0, count). The same entries in the same order as `count` calls of add(), but the
+  // blocks (the costly part: element Hessians and their projections) are computed on every
+  // element thread (util/parallel.h), each into its own slice of the values.
+  template <int N, class Verts, class Hessian>
+  void add_elements(int count, const Verts& verts, const Hessian& hessian) {
+    element_offsets_.resize(static_cast<size_t>(count));
+    size_t end = values_.size();
+    for (int e = 0; e < count; ++e) {
+      const std::array<int, N> v = verts(e);
+      push_stencil<N>(v);
+      element_offsets_[static_cast<size_t>(e)] = end;
+      end += lower_entry_count<N>(v);
+    }
+    values_.resize(end);
+    parallel_for_index(count, [&](int e) {
+      write_lower_entries<N>(verts(e), hessian(e), values_.data() + element_offsets_[static_cast<size_t>(e)]);
+    });
   }
 
   // Adds d to the diagonal entry of every dof (mass / h^2 terms).
@@ -52,9 +68,39 @@ class HessianAssembly {
  private:
   void rebuild_pattern();
 
+  template <int N>
+  void push_stencil(const std::array<int, N>& verts) {
+    stencil_.push_back(N);
+    for (int a = 0; a < N; ++a) stencil_.push_back(verts[a]);
+  }
+  // The element's stored entries: its lower triangle over the global dof order (for every vertex
+  // pair a, b with verts[a] >= verts[b], the 3x3 block's entries with row >= column).
+  template <int N, class F>
+  static void for_lower_entries(const std::array<int, N>& verts, F&& f) {
+    for (int a = 0; a < N; ++a)
+      for (int b = 0; b < N; ++b) {
+        if (verts[a] < verts[b]) continue;
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            if (3 * verts[a] + i >= 3 * verts[b] + j) f(3 * a + i, 3 * b + j);
+      }
+  }
+  template <int N>
+  static size_t lower_entry_count(const std::array<int, N>& verts) {
+    size_t n = 0;
+    for_lower_entries<N>(verts, [&](int, int) { ++n; });
+    return n;
+  }
+  template <int N>
+  static void write_lower_entries(const std::array<int, N>& verts, const Eigen::Matrix<double, 3 * N, 3 * N>& H,
+                                  double* out) {
+    for_lower_entries<N>(verts, [&](int i, int j) { *out++ = H(i, j); });
+  }
+
   int num_dofs_ = 0;
   std::vector<int> stencil_, previous_stencil_;  // N, v0..vN-1 per element, in call order
   std::vector<double> values_;                   // element entries in call order
+  std::vector<size_t> element_offsets_;          // add_elements: first value of each element
   Eigen::VectorXd diagonal_;
   std::vector<int> scatter_;                     // values_[k] lands at matrix_.valuePtr()[scatter_[k]]
   std::vector<int> diagonal_slot_;               // value index of diagonal entry per dof

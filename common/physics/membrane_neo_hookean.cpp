@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 
+#include "physics/element_loops.h"
 #include "physics/triangle_rest.h"
 
 // Derivation (notation of the header; B = abar^{-1}, A = a^{-1}, L = ln det M, all 2x2 symmetric).
@@ -202,34 +203,34 @@ Vec<9> NeoHookeanMembrane::gather(const Eigen::VectorXd& x, int face) const {
   return xe;
 }
 
+// The three loops run on every element thread with thread-count-independent results
+// (physics/element_loops.h).
 double NeoHookeanMembrane::value(const Eigen::VectorXd& x) const {
   check_size(x);
-  double total = 0.0;
-  for (int f = 0; f < num_faces(); ++f) {
-    const double ef = neo_hookean_membrane_energy(gather(x, f), rest_[f], params_);
-    if (ef == std::numeric_limits<double>::infinity()) return ef;  // degenerate: reject the step
-    total += ef;
-  }
-  return total;
+  // A degenerate face gives +inf, and so does the sum (energies are >= 0): the step is rejected.
+  return sum_element_energies(num_faces(), [&](int f) {
+    return neo_hookean_membrane_energy(gather(x, f), rest_[f], params_);
+  });
 }
 
 void NeoHookeanMembrane::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
   check_size(x);
   if (grad.size() != x.size())
     throw std::invalid_argument("NeoHookeanMembrane::add_gradient: grad and x differ in size");
-  for (int f = 0; f < num_faces(); ++f) {
-    const Vec<9> g = neo_hookean_membrane_gradient(gather(x, f), rest_[f], params_);
-    for (int k = 0; k < 3; ++k) grad.segment<3>(3 * faces_[f][k]) += g.segment<3>(3 * k);
-  }
+  add_element_gradients<3>(
+      num_faces(), [&](int f) { return faces_[f]; },
+      [&](int f) { return neo_hookean_membrane_gradient(gather(x, f), rest_[f], params_); }, grad);
 }
 
 void NeoHookeanMembrane::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                                      HessianAssembly& hessian) const {
   check_size(x);
-  for (int f = 0; f < num_faces(); ++f) {
-    const Mat<9> H = neo_hookean_membrane_hessian(gather(x, f), rest_[f], params_);
-    hessian.add<3>(faces_[f], project_hessian<9>(H, projection));
-  }
+  add_element_hessians<3>(
+      num_faces(), [&](int f) { return faces_[f]; },
+      [&](int f) {
+        return project_hessian<9>(neo_hookean_membrane_hessian(gather(x, f), rest_[f], params_), projection);
+      },
+      hessian);
 }
 
 }  // namespace pd

@@ -190,7 +190,7 @@ for i in 1 2; do
   expand "$TMP/units/pd-worker@.service" "$i"
   # PrivateTmp= gives each instance a private /var/tmp; outside systemd the test's folder stands in.
   argv=("${ARGV[@]//\/var\/tmp\//$TMP/var-tmp/}")
-  expected=("$WORKER" --connect "tcp://127.0.0.1:$WPORT" --name "$HOST-$i" --scratch "$TMP/var-tmp/pd-worker-$i")
+  expected=("$WORKER" --connect "tcp://127.0.0.1:$WPORT" --name "$HOST-$i" --scratch "$TMP/var-tmp/pd-worker-$i" --threads 1)
   [ "${argv[*]@Q}" = "${expected[*]@Q}" ] || fail "worker $i command line: ${argv[*]@Q}, expected ${expected[*]@Q}"
   echo "ok: worker $i: ${argv[*]@Q}"
   env "${ENVS[@]}" "${argv[@]}" >"$TMP/worker-$i.log" 2>&1 &

@@ -21,6 +21,8 @@
 #include <gtest/gtest.h>
 
 #include "support/finite_difference.h"
+#include "geometry/shapes.h"
+#include "support/term_eval.h"
 
 namespace pd {
 namespace {
@@ -442,6 +444,21 @@ TEST(HingeBending, StiffnessIsHalfTheBendingRigidityAndBadHingesThrow) {
   EXPECT_THROW(HingeBending({Hinge{{0, 1, 2, 4}}}, V, 1.0), std::invalid_argument);
   V.row(2) << 2, 0, 0;  // wing 1 collinear with the edge: zero rest area
   EXPECT_THROW(HingeBending({Hinge{{0, 1, 2, 3}}}, V, 1.0), std::invalid_argument);
+}
+
+
+// The element loops run on several threads (physics/element_loops.h); the value, the gradient and
+// the assembled projected Hessian must be the same bytes for every thread count.
+TEST(HingeBending, ValueGradientAndHessianAreBitIdenticalOnOneTwoAndThreeThreads) {
+  const TriMesh sheet = make_rectangle(1.0, 1.0, 30, 30);
+  const std::vector<Hinge> hinges = hinges_of(sheet.F);
+  ASSERT_GT(hinges.size(), 2000u);  // the parallel path
+  const HingeBending bending(hinges, sheet.V, 0.02);
+  const Eigen::VectorXd x = stacked(sheet.V) + 0.01 * test::wavy(3 * sheet.num_vertices(), 0.37, 0.1);
+  const test::TermBits one = test::term_bits(bending, x, HessianProjection::Clamp, 1);
+  long compared = 0;
+  for (int threads : {2, 3}) compared += test::expect_same_bits(one, test::term_bits(bending, x, HessianProjection::Clamp, threads));
+  EXPECT_GT(compared, 2 * 45000);  // 1 value + 2 883 gradient + 46 806 Hessian values per comparison
 }
 
 }  // namespace

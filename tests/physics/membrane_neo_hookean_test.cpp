@@ -15,6 +15,8 @@
 #include "physics/membrane_neo_hookean.h"
 #include "support/finite_difference.h"
 #include "support/triangle_vectors.h"
+#include "geometry/shapes.h"
+#include "support/term_eval.h"
 
 namespace pd {
 namespace {
@@ -308,6 +310,19 @@ TEST(NeoHookeanMembrane, TermRejectsCollapsedTriangleAndBadInput) {
   Faces bad = mesh.faces;
   bad(2, 1) = 7;
   EXPECT_THROW(NeoHookeanMembrane(bad, mesh.rest, kCloth), std::invalid_argument);
+}
+
+
+// The element loops run on several threads (physics/element_loops.h); the value, the gradient and
+// the assembled projected Hessian must be the same bytes for every thread count.
+TEST(NeoHookeanMembrane, ValueGradientAndHessianAreBitIdenticalOnOneTwoAndThreeThreads) {
+  const TriMesh sheet = make_rectangle(1.0, 1.0, 30, 30);  // 1800 faces: the parallel path
+  const NeoHookeanMembrane membrane(sheet.F, sheet.V, kCloth);
+  const Eigen::VectorXd x = stacked(sheet.V) + 0.01 * test::wavy(3 * sheet.num_vertices(), 0.37, 0.1);
+  const test::TermBits one = test::term_bits(membrane, x, HessianProjection::Clamp, 1);
+  long compared = 0;
+  for (int threads : {2, 3}) compared += test::expect_same_bits(one, test::term_bits(membrane, x, HessianProjection::Clamp, threads));
+  EXPECT_GT(compared, 2 * 30000);  // 1 value + 2 883 gradient + 30 606 Hessian values per comparison
 }
 
 }  // namespace

@@ -1,8 +1,11 @@
 #include "support/term_eval.h"
 
 #include <cmath>
+#include <cstring>
 
 #include <gtest/gtest.h>
+
+#include "util/parallel.h"
 
 namespace pd::test {
 
@@ -45,6 +48,39 @@ void expect_derivatives_match(const TermFdCheck& c, double gradient_tolerance, d
   EXPECT_GE(c.gradient.steps_within(gradient_tolerance), 2) << "best " << c.gradient.best_rel_error;
   EXPECT_GT(c.hessian.comparisons, 0);
   EXPECT_GE(c.hessian.steps_within(hessian_tolerance), 2) << "best " << c.hessian.best_rel_error;
+}
+
+TermBits term_bits(const EnergyTerm& term, const Eigen::VectorXd& x, HessianProjection p, int threads) {
+  const int saved = element_threads();
+  set_element_threads(threads);
+  TermBits bits;
+  bits.value = term.value(x);
+  bits.gradient = term_gradient(term, x);
+  HessianAssembly assembly;
+  assembly.begin(static_cast<int>(x.size()));
+  term.add_hessian(x, p, assembly);
+  const HessianAssembly::SparseMatrix& H = assembly.finish(nullptr);
+  bits.hessian.assign(H.valuePtr(), H.valuePtr() + H.nonZeros());
+  set_element_threads(saved);
+  return bits;
+}
+
+long expect_same_bits(const TermBits& a, const TermBits& b) {
+  long compared = 0;
+  auto same = [&](const double* u, const double* v, size_t n, const char* what) {
+    for (size_t i = 0; i < n; ++i, ++compared)
+      if (std::memcmp(u + i, v + i, sizeof(double)) != 0) {
+        ADD_FAILURE() << what << " entry " << i << " differs: " << u[i] << " vs " << v[i];
+        return;
+      }
+  };
+  same(&a.value, &b.value, 1, "value");
+  EXPECT_EQ(a.gradient.size(), b.gradient.size());
+  EXPECT_EQ(a.hessian.size(), b.hessian.size());
+  if (a.gradient.size() == b.gradient.size())
+    same(a.gradient.data(), b.gradient.data(), static_cast<size_t>(a.gradient.size()), "gradient");
+  if (a.hessian.size() == b.hessian.size()) same(a.hessian.data(), b.hessian.data(), a.hessian.size(), "Hessian");
+  return compared;
 }
 
 }  // namespace pd::test

@@ -1,5 +1,7 @@
 #pragma once
 // Dense evaluations of an EnergyTerm for tests on small meshes.
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "physics/energy_term.h"
@@ -30,5 +32,18 @@ TermFdCheck check_term_derivatives(const EnergyTerm& term, const Eigen::VectorXd
 // GoogleTest expectations on a TermFdCheck: both checks ran, and each agreed at two or more step
 // sizes to within its tolerance.
 void expect_derivatives_match(const TermFdCheck& check, double gradient_tolerance, double hessian_tolerance);
+
+// A term's value (J), gradient (J/m) and assembled Hessian values (J/m^2, projected as `p` says),
+// evaluated with `threads` element threads (util/parallel.h), for bit-for-bit comparisons.
+struct TermBits {
+  double value = 0.0;
+  Eigen::VectorXd gradient;
+  std::vector<double> hessian;  // the stored lower triangle's values, in storage order
+};
+TermBits term_bits(const EnergyTerm& term, const Eigen::VectorXd& x, HessianProjection p, int threads);
+
+// Expects a and b to hold the same bytes (value, every gradient entry, every Hessian value) and
+// returns how many doubles were compared (a caller asserts it is large enough to mean something).
+long expect_same_bits(const TermBits& a, const TermBits& b);
 
 }  // namespace pd::test

@@ -11,6 +11,7 @@
 #include "physics/contact/ccd_additive.h"
 #include "physics/contact/distance.h"
 #include "physics/contact/edge_edge_mollifier.h"
+#include "physics/element_loops.h"
 
 namespace pd {
 
@@ -209,53 +210,92 @@ CandidatePairs BarrierPotential::pairs_within_offset(const Eigen::VectorXd& x) c
   return out;
 }
 
-template <class F>
-void BarrierPotential::for_each_active_pair(const Eigen::VectorXd& x, F&& f) const {
+std::vector<BarrierPotential::ActivePair> BarrierPotential::active_pairs(const Eigen::VectorXd& x) const {
   const CandidatePairs& pairs = candidates(x);
   const double active_d2 = barrier_active_squared_distance(settings_.dhat, settings_.offset);
   const double thin_active_d2 = barrier_active_squared_distance(settings_.dhat + settings_.offset, 0.0);
   const bool any_thin = !thin_.point_triangle.empty() || !thin_.edge_edge.empty();
-  for (const auto& pair : pairs.point_triangle) {
-    const auto stencil = point_triangle_stencil(primitives_, pair);
-    const Vec<12> x12 = gather(x, stencil);
-    const double d2 = point_triangle_squared_distance(x12);
-    const double offset = any_thin ? pair_offset(kPointTriangle, pair) : settings_.offset;
-    if (d2 < (offset == settings_.offset ? active_d2 : thin_active_d2)) f(kPointTriangle, stencil, x12, d2, 0.0, offset);
-  }
-  for (const auto& pair : pairs.edge_edge) {
-    const auto stencil = edge_edge_stencil(primitives_, pair);
-    const Vec<12> x12 = gather(x, stencil);
-    const double d2 = edge_edge_squared_distance(x12);
-    const double eps_x = kEdgeEdgeMollifierScale * edge_rest_length2_[pair[0]] * edge_rest_length2_[pair[1]];
-    const double offset = any_thin ? pair_offset(kEdgeEdge, pair) : settings_.offset;
-    if (d2 < (offset == settings_.offset ? active_d2 : thin_active_d2)) f(kEdgeEdge, stencil, x12, d2, eps_x, offset);
-  }
+  const int num_pt = static_cast<int>(pairs.point_triangle.size());
+  const int num_candidates = num_pt + static_cast<int>(pairs.edge_edge.size());
+  // One slot per candidate, filled in parallel, then the active ones kept in candidate order.
+  std::vector<ActivePair> slots(static_cast<size_t>(num_candidates));
+  std::vector<char> active(static_cast<size_t>(num_candidates), 0);
+  parallel_for_index(num_candidates, [&](int i) {
+    ActivePair& p = slots[static_cast<size_t>(i)];
+    if (i < num_pt) {
+      const auto& pair = pairs.point_triangle[static_cast<size_t>(i)];
+      p.kind = kPointTriangle;
+      p.v = point_triangle_stencil(primitives_, pair);
+      p.x12 = gather(x, p.v);
+      p.d2 = point_triangle_squared_distance(p.x12);
+      p.eps_x = 0.0;
+      p.offset = any_thin ? pair_offset(kPointTriangle, pair) : settings_.offset;
+    } else {
+      const auto& pair = pairs.edge_edge[static_cast<size_t>(i - num_pt)];
+      p.kind = kEdgeEdge;
+      p.v = edge_edge_stencil(primitives_, pair);
+      p.x12 = gather(x, p.v);
+      p.d2 = edge_edge_squared_distance(p.x12);
+      p.eps_x = kEdgeEdgeMollifierScale * edge_rest_length2_[pair[0]] * edge_rest_length2_[pair[1]];
+      p.offset = any_thin ? pair_offset(kEdgeEdge, pair) : settings_.offset;
+    }
+    active[static_cast<size_t>(i)] = p.d2 < (p.offset == settings_.offset ? active_d2 : thin_active_d2);
+  });
+  std::vector<ActivePair> out;
+  for (size_t i = 0; i < slots.size(); ++i)
+    if (active[i]) out.push_back(slots[i]);
+  return out;
 }
 
+template <class F>
+void BarrierPotential::for_each_active_pair(const Eigen::VectorXd& x, F&& f) const {
+  for (const ActivePair& p : active_pairs(x)) f(p.kind, p.v, p.x12, p.d2, p.eps_x, p.offset);
+}
+
+double BarrierPotential::pair_energy(const ActivePair& p) const {
+  const double b = barrier(p.d2, pair_dhat(p.offset), p.offset);
+  return p.kind == kEdgeEdge ? edge_edge_mollifier(p.x12, p.eps_x) * b : b;
+}
+
+Vec<12> BarrierPotential::pair_gradient(const ActivePair& p) const {
+  const double db = barrier_first_derivative(p.d2, pair_dhat(p.offset), p.offset);
+  if (p.kind == kPointTriangle) return db * point_triangle_squared_distance_gradient(p.x12);
+  // d(m b) = m b' grad d2 + b grad m
+  const double b = barrier(p.d2, pair_dhat(p.offset), p.offset);
+  return edge_edge_mollifier(p.x12, p.eps_x) * db * edge_edge_squared_distance_gradient(p.x12) +
+         b * edge_edge_mollifier_gradient(p.x12, p.eps_x);
+}
+
+Mat<12> BarrierPotential::pair_hessian(const ActivePair& p) const {
+  const double db = barrier_first_derivative(p.d2, pair_dhat(p.offset), p.offset);
+  const double ddb = barrier_second_derivative(p.d2, pair_dhat(p.offset), p.offset);
+  if (p.kind == kPointTriangle) {
+    const Vec<12> g = point_triangle_squared_distance_gradient(p.x12);
+    return ddb * g * g.transpose() + db * point_triangle_squared_distance_hessian(p.x12);
+  }
+  // Hessian of m b(d2): m (b'' g g^T + b' H_d) + b H_m + b' (g_m g^T + g g_m^T)
+  const Vec<12> g = edge_edge_squared_distance_gradient(p.x12);
+  const Vec<12> gm = edge_edge_mollifier_gradient(p.x12, p.eps_x);
+  const double m = edge_edge_mollifier(p.x12, p.eps_x);
+  const double b = barrier(p.d2, pair_dhat(p.offset), p.offset);
+  return m * (ddb * g * g.transpose() + db * edge_edge_squared_distance_hessian(p.x12)) +
+         b * edge_edge_mollifier_hessian(p.x12, p.eps_x) + db * (gm * g.transpose() + g * gm.transpose());
+}
+
+// value, gradient and Hessian run on every element thread with thread-count-independent results
+// (physics/element_loops.h); sums go in active_pairs' order.
 double BarrierPotential::value(const Eigen::VectorXd& x) const {
-  double e = 0.0;
-  for_each_active_pair(x, [&](int kind, const std::array<int, 4>&, const Vec<12>& x12, double d2, double eps_x, double offset) {
-    const double b = barrier(d2, pair_dhat(offset), offset);
-    e += kind == kEdgeEdge ? edge_edge_mollifier(x12, eps_x) * b : b;
-  });
-  return settings_.kappa * e;
+  const std::vector<ActivePair> pairs = active_pairs(x);
+  return settings_.kappa * sum_element_energies(static_cast<int>(pairs.size()),
+                                                [&](int i) { return pair_energy(pairs[static_cast<size_t>(i)]); });
 }
 
 Eigen::VectorXd BarrierPotential::unit_stiffness_gradient(const Eigen::VectorXd& x) const {
   Eigen::VectorXd g = Eigen::VectorXd::Zero(x.size());
-  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double eps_x, double offset) {
-    const double db = barrier_first_derivative(d2, pair_dhat(offset), offset);
-    Vec<12> ge;
-    if (kind == kPointTriangle) {
-      ge = db * point_triangle_squared_distance_gradient(x12);
-    } else {
-      // d(m b) = m b' grad d2 + b grad m
-      const double b = barrier(d2, pair_dhat(offset), offset);
-      ge = edge_edge_mollifier(x12, eps_x) * db * edge_edge_squared_distance_gradient(x12) +
-           b * edge_edge_mollifier_gradient(x12, eps_x);
-    }
-    for (int k = 0; k < 4; ++k) g.segment<3>(3 * v[k]) += ge.segment<3>(3 * k);
-  });
+  const std::vector<ActivePair> pairs = active_pairs(x);
+  add_element_gradients<4>(
+      static_cast<int>(pairs.size()), [&](int i) { return pairs[static_cast<size_t>(i)].v; },
+      [&](int i) { return pair_gradient(pairs[static_cast<size_t>(i)]); }, g);
   return g;
 }
 
@@ -267,24 +307,11 @@ void BarrierPotential::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g
 void BarrierPotential::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                                    HessianAssembly& hessian) const {
   const double kappa = settings_.kappa;
-  for_each_active_pair(x, [&](int kind, const std::array<int, 4>& v, const Vec<12>& x12, double d2, double eps_x, double offset) {
-    const double db = barrier_first_derivative(d2, pair_dhat(offset), offset);
-    const double ddb = barrier_second_derivative(d2, pair_dhat(offset), offset);
-    Mat<12> H;
-    if (kind == kPointTriangle) {
-      const Vec<12> g = point_triangle_squared_distance_gradient(x12);
-      H = ddb * g * g.transpose() + db * point_triangle_squared_distance_hessian(x12);
-    } else {
-      // Hessian of m b(d2): m (b'' g g^T + b' H_d) + b H_m + b' (g_m g^T + g g_m^T)
-      const Vec<12> g = edge_edge_squared_distance_gradient(x12);
-      const Vec<12> gm = edge_edge_mollifier_gradient(x12, eps_x);
-      const double m = edge_edge_mollifier(x12, eps_x);
-      const double b = barrier(d2, pair_dhat(offset), offset);
-      H = m * (ddb * g * g.transpose() + db * edge_edge_squared_distance_hessian(x12)) +
-          b * edge_edge_mollifier_hessian(x12, eps_x) + db * (gm * g.transpose() + g * gm.transpose());
-    }
-    hessian.add<4>(v, project_hessian<12>(kappa * H, projection));
-  });
+  const std::vector<ActivePair> pairs = active_pairs(x);
+  add_element_hessians<4>(
+      static_cast<int>(pairs.size()), [&](int i) { return pairs[static_cast<size_t>(i)].v; },
+      [&](int i) { return project_hessian<12>(kappa * pair_hessian(pairs[static_cast<size_t>(i)]), projection); },
+      hessian);
 }
 
 double BarrierPotential::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const {

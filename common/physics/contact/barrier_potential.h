@@ -90,13 +90,27 @@ class BarrierPotential : public EnergyTerm, public FrictionSource {
   void friction_contacts(const Eigen::VectorXd& x, std::vector<FrictionContact>& out) const override;
 
  private:
-  // Calls f(kind, stencil, x12, d2, eps_x, offset) for every candidate pair within the activation
-  // distance at x: kind 0 = point-triangle, 1 = edge-edge; stencil = the 4 global vertices in
-  // variable order; x12 their positions; d2 the squared distance (m^2); eps_x the mollifier threshold
-  // (edge-edge); offset the pair's contact offset (m: 0 for thin pairs, else settings_.offset;
-  // pair_dhat(offset) is then its activation distance).
+  // A candidate pair within the activation distance at x: kind 0 = point-triangle, 1 = edge-edge;
+  // v = the 4 global vertices in variable order; x12 their positions; d2 the squared distance
+  // (m^2); eps_x the mollifier threshold (edge-edge, else 0); offset the pair's contact offset (m:
+  // 0 for thin pairs, else settings_.offset; pair_dhat(offset) is then its activation distance).
+  struct ActivePair {
+    int kind;
+    std::array<int, 4> v;
+    Vec<12> x12;
+    double d2, eps_x, offset;
+  };
+  // The active pairs at x, point-triangle pairs first, each list in the broad phase's order (the
+  // order every sum over pairs uses). Distances are computed on every element thread.
+  std::vector<ActivePair> active_pairs(const Eigen::VectorXd& x) const;
+  // Calls f(kind, stencil, x12, d2, eps_x, offset) for every active pair, in active_pairs' order.
   template <class F>
   void for_each_active_pair(const Eigen::VectorXd& x, F&& f) const;
+  // One pair's barrier (kappa = 1, J), its gradient and its unprojected Hessian in the pair's 12
+  // variables.
+  double pair_energy(const ActivePair& p) const;
+  Vec<12> pair_gradient(const ActivePair& p) const;
+  Mat<12> pair_hessian(const ActivePair& p) const;
 
   // The broad phase's pairs at x, reused while x is bit-for-bit unchanged: a Newton iteration asks
   // for the gradient and the Hessian at the positions the line search just evaluated.

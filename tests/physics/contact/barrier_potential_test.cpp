@@ -188,5 +188,39 @@ TEST(BarrierPotential, SheetDroppedOnASphereNeverIntersectsAndStaysOnTop) {
   EXPECT_LT(x[3 * centre + 1], sphere_top + 5e-3);
 }
 
+
+// The pair loops run on several threads (physics/element_loops.h): two 24 x 24 sheets 0.6 dhat
+// apart, the upper one shifted and waved, have thousands of active pairs; value, gradient and
+// assembled projected Hessian must be the same bytes for every thread count.
+TEST(BarrierPotential, ValueGradientAndHessianAreBitIdenticalOnOneTwoAndThreeThreads) {
+  const TriMesh lower = make_rectangle(1.0, 1.0, 24, 24);
+  TriMesh upper = lower;
+  for (int i = 0; i < upper.num_vertices(); ++i)
+    upper.V.row(i) += Vec3(0.013, 0.007, 0.006 + 0.001 * std::sin(7.0 * upper.V(i, 0))).transpose();
+  ContactPrimitives prims;
+  const int n = lower.num_vertices();
+  Positions rest(2 * n, 3);
+  rest << lower.V, upper.V;
+  prims.faces.resize(2 * lower.num_faces(), 3);
+  prims.faces << lower.F, (lower.F.array() + n).matrix();
+  for (auto e : build_topology(lower).edges) prims.edges.push_back(e);
+  for (auto e : build_topology(lower).edges) prims.edges.push_back({e[0] + n, e[1] + n});
+  prims.vertex_object.assign(2 * n, 0);
+  for (int v = n; v < 2 * n; ++v) prims.vertex_object[v] = 1;
+  prims.object_self_contact = {0, 0};
+  ContactSettings cs;
+  cs.dhat = 0.01;
+  cs.kappa = 10.0;
+  const BarrierPotential term(prims, rest, cs);
+  const Eigen::VectorXd x = stacked(rest);
+  const ContactStats st = term.stats(x);
+  ASSERT_GT(st.active_point_triangle + st.active_edge_edge, 2000);  // the parallel path
+  ASSERT_GT(st.min_gap, 0.0);
+  const test::TermBits one = test::term_bits(term, x, HessianProjection::Clamp, 1);
+  long compared = 0;
+  for (int threads : {2, 3}) compared += test::expect_same_bits(one, test::term_bits(term, x, HessianProjection::Clamp, threads));
+  EXPECT_GT(compared, 2 * 20000);
+}
+
 }  // namespace
 }  // namespace pd

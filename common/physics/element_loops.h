@@ -1,0 +1,48 @@
+#pragma once
+// The three loops every element energy runs (value, gradient, Hessian), on several threads with
+// results independent of the thread count (util/parallel.h's rule): each element's value, gradient
+// or Hessian is computed in parallel into its own slot, and the sum, the scatter into the global
+// gradient and the assembly run in element order, exactly as the serial loops did.
+//
+// Shapes shared by all three: `count` elements; verts(e) -> std::array<int, N> (the element's
+// global vertex indices, its local dofs ordered verts[0] xyz, verts[1] xyz, ...).
+#include <array>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "physics/hessian_assembly.h"
+#include "util/parallel.h"
+
+namespace pd {
+
+// Sum over e in [0, count) of energy(e) (J), added in element order.
+template <class Energy>
+double sum_element_energies(int count, const Energy& energy) {
+  std::vector<double> values(static_cast<size_t>(count));
+  parallel_for_index(count, [&](int e) { values[static_cast<size_t>(e)] = energy(e); });
+  double total = 0.0;
+  for (double v : values) total += v;
+  return total;
+}
+
+// grad += the element gradients gradient(e) (Eigen::Matrix<double, 3N, 1>, J/m), scattered in
+// element order.
+template <int N, class Verts, class Gradient>
+void add_element_gradients(int count, const Verts& verts, const Gradient& gradient, Eigen::VectorXd& grad) {
+  std::vector<Eigen::Matrix<double, 3 * N, 1>> g(static_cast<size_t>(count));
+  parallel_for_index(count, [&](int e) { g[static_cast<size_t>(e)] = gradient(e); });
+  for (int e = 0; e < count; ++e) {
+    const std::array<int, N> v = verts(e);
+    for (int a = 0; a < N; ++a) grad.template segment<3>(3 * v[a]) += g[static_cast<size_t>(e)].template segment<3>(3 * a);
+  }
+}
+
+// Adds the element Hessians hessian(e) (3N x 3N, already projected, J/m^2) to `assembly`, the same
+// entries in the same order as `count` calls of HessianAssembly::add.
+template <int N, class Verts, class Hessian>
+void add_element_hessians(int count, const Verts& verts, const Hessian& hessian, HessianAssembly& assembly) {
+  assembly.add_elements<N>(count, verts, hessian);
+}
+
+}  // namespace pd
