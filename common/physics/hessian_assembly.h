@@ -7,6 +7,7 @@
 // stencils (the usual case: elasticity never changes its stencils) scatter straight into the stored
 // values without sorting, and report that the sparsity pattern is unchanged so that the Cholesky
 // factorization can reuse its symbolic analysis.
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -30,8 +31,8 @@ class HessianAssembly {
   template <int N>
   void add(const std::array<int, N>& verts, const Eigen::Matrix<double, 3 * N, 3 * N>& H) {
     push_stencil<N>(verts);
-    const size_t first = values_.size();
-    values_.resize(first + lower_entry_count<N>(verts));
+    const size_t first = num_values_;
+    reserve_values(first + lower_entry_count<N>(verts));
     write_lower_entries<N>(verts, H, values_.data() + first);
   }
 
@@ -42,14 +43,14 @@ class HessianAssembly {
   template <int N, class Verts, class Hessian>
   void add_elements(int count, const Verts& verts, const Hessian& hessian) {
     element_offsets_.resize(static_cast<size_t>(count));
-    size_t end = values_.size();
+    size_t end = num_values_;
     for (int e = 0; e < count; ++e) {
       const std::array<int, N> v = verts(e);
       push_stencil<N>(v);
       element_offsets_[static_cast<size_t>(e)] = end;
       end += lower_entry_count<N>(v);
     }
-    values_.resize(end);
+    reserve_values(end);
     parallel_for_index(count, [&](int e) {
       write_lower_entries<N>(verts(e), hessian(e), values_.data() + element_offsets_[static_cast<size_t>(e)]);
     });
@@ -68,6 +69,12 @@ class HessianAssembly {
  private:
   void rebuild_pattern();
 
+  // Makes values_[0, n) usable and num_values_ = n. values_ only grows: it is not cleared between
+  // assemblies, which would zero-fill tens of megabytes every Newton iteration.
+  void reserve_values(size_t n) {
+    if (values_.size() < n) values_.resize(std::max(n, 2 * values_.size()));
+    num_values_ = n;
+  }
   template <int N>
   void push_stencil(const std::array<int, N>& verts) {
     stencil_.push_back(N);
@@ -99,10 +106,12 @@ class HessianAssembly {
 
   int num_dofs_ = 0;
   std::vector<int> stencil_, previous_stencil_;  // N, v0..vN-1 per element, in call order
-  std::vector<double> values_;                   // element entries in call order
+  std::vector<double> values_;                   // element entries in call order: [0, num_values_)
+  size_t num_values_ = 0;
   std::vector<size_t> element_offsets_;          // add_elements: first value of each element
   Eigen::VectorXd diagonal_;
-  std::vector<int> scatter_;                     // values_[k] lands at matrix_.valuePtr()[scatter_[k]]
+  // values_[gather_value_[g]] for g in [gather_begin_[s], gather_begin_[s + 1]) land in matrix slot s.
+  std::vector<int> gather_begin_, gather_value_;  // int: as the matrix's own indices
   std::vector<int> diagonal_slot_;               // value index of diagonal entry per dof
   std::vector<char> fixed_;
   SparseMatrix matrix_;
