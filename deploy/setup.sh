@@ -5,6 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake pkg-config
+  ccache                 # the sanitizer build reuses the Release build's numerical objects (PD_CCACHE)
   libeigen3-dev          # dense/sparse linear algebra, fixed-size per-element types
   libsuitesparse-dev     # CHOLMOD supernodal Cholesky
   libopenblas-dev        # BLAS behind CHOLMOD (about 3x the reference BLAS on large cloth)
