@@ -146,12 +146,20 @@ FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v
   NewtonSettings ns;
   ns.h = h_;
   ns.step_tolerance = settings_.tolerance * sys_.bbox_diagonal;
-  // With friction the stopping test must resolve velocities below eps_v: a first Newton step from
-  // rest lies inside the static-friction cone (|u| < eps_v h), so a looser test would accept it
-  // and a sheet that should slide would stay put (measured on a 35 degree slope, mu = 0.5, in a
-  // 1.8 m scene: tolerance * bbox = 1.8e-3 m/s against a first step of 7e-4 m/s).
-  if (sys_.contact.friction)
-    ns.step_tolerance = std::min(ns.step_tolerance, kFrictionToleranceFraction * sys_.contact.friction->eps_v());
+  // With friction the stopping test must resolve tangential speeds below eps_v: a first Newton step
+  // from rest lies inside the static-friction cone (|u| < eps_v h), so a looser test would accept
+  // it and a sheet that should slide would stay put (measured on a 35 degree slope, mu = 0.5, in a
+  // 1.8 m scene: tolerance * bbox = 1.8e-3 m/s against a first step of 7e-4 m/s). Contacts: only
+  // the contacts' tangential steps are held to that; Uniform: every vertex's step.
+  if (const FrictionTerm* friction = sys_.contact.friction) {
+    const double tight = kFrictionToleranceFraction * friction->eps_v();
+    if (settings_.friction_stopping == FrictionStopping::Uniform) {
+      ns.step_tolerance = std::min(ns.step_tolerance, tight);
+    } else {
+      ns.tangential_step = [friction](const Eigen::VectorXd& p) { return friction->max_tangential_step(p); };
+      ns.tangential_tolerance = tight;
+    }
+  }
   ns.max_iterations = settings_.max_newton_iterations;
   ns.projection = settings_.projection;
   const bool barrier = sys_.contact.has_barrier();

@@ -133,9 +133,16 @@ struct Wind {
   double gust_frequency = 0.0;       // Hz
 };
 
+// How Newton's stopping test resolves friction (docs/scene-format.md, solver.friction_stopping).
+enum class FrictionStopping {
+  Contacts,  // each friction contact's tangential step below 0.1 eps_v, the rest at `tolerance`
+  Uniform,   // every vertex's step below min(tolerance * bbox, 0.1 eps_v) (the rule before 2026-12-02)
+};
+
 struct SolverSettings {
   // Newton stops when ||p||_inf / h < tolerance * (bounding-box diagonal), p the Newton step.
   double tolerance = 1e-3;
+  FrictionStopping friction_stopping = FrictionStopping::Contacts;
   int max_newton_iterations = 200;
   HessianProjection projection = HessianProjection::Clamp;
 };

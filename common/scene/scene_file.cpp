@@ -520,12 +520,16 @@ Wind read_wind(const JsonNode& node) {
 }
 
 SolverSettings read_solver(const JsonNode& node) {
-  node.expect_keys({"tolerance", "max_newton_iterations", "hessian_projection"});
+  node.expect_keys({"tolerance", "max_newton_iterations", "hessian_projection", "friction_stopping"});
   SolverSettings s;
   if (auto v = node.optional("tolerance")) s.tolerance = v->in_range(limits::kTolerance);
   if (auto v = node.optional("max_newton_iterations")) s.max_newton_iterations = as_int(v->integer(1, 1000000));
   if (auto v = node.optional("hessian_projection")) {
     parse_hessian_projection(v->choice({"none", "clamp", "abs"}, "Hessian projection"), s.projection);
+  }
+  if (auto v = node.optional("friction_stopping")) {
+    const std::string rule = v->choice({"contacts", "uniform"}, "friction stopping rule");
+    s.friction_stopping = rule == "uniform" ? FrictionStopping::Uniform : FrictionStopping::Contacts;
   }
   return s;
 }

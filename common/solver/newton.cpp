@@ -36,7 +36,13 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
 
     const double measure = p.lpNorm<Eigen::Infinity>() / s.h;
     r.step_measures.push_back(measure);
-    if (measure < s.step_tolerance) {
+    bool small = measure < s.step_tolerance;
+    if (small && s.tangential_step) {
+      const double tangential = s.tangential_step(p) / s.h;
+      r.tangential_measures.push_back(tangential);
+      small = tangential < s.tangential_tolerance;
+    }
+    if (small) {
       r.converged = true;
       r.stop_reason = "converged";
       r.gradient_norms.push_back(g.norm());

@@ -16,6 +16,13 @@ struct NewtonSettings {
   // Stop when ||p||_inf / h < step_tolerance, p the Newton step (m/s). The scene sets it to
   // tolerance * bounding-box diagonal, following IPC's scale-free measure.
   double step_tolerance = 0.0;
+  // Friction's test, when set: converged also needs tangential_step(p) / h < tangential_tolerance
+  // (m/s), tangential_step(p) the largest change (m) the step p makes to a friction contact's
+  // tangential displacement. Inside the static cone a contact's Newton step is small because the
+  // smoothed friction is stiff there, not because the step is converged; this resolves contacts
+  // finely without holding the whole mesh to that precision.
+  std::function<double(const Eigen::VectorXd&)> tangential_step;
+  double tangential_tolerance = 0.0;
   int max_iterations = 200;
   int max_line_search_cuts = 40;   // halvings before the line search gives up (no descent)
   HessianProjection projection = HessianProjection::Clamp;
@@ -33,6 +40,8 @@ struct NewtonReport {
   // by the level stepper when scripted pins could not reach their targets)
   std::string stop_reason;
   std::vector<double> step_measures;   // ||p||_inf / h per iteration, m/s
+  // tangential_step(p) / h of the iterations whose step measure passed, m/s (friction test only)
+  std::vector<double> tangential_measures;
   std::vector<double> gradient_norms;  // ||grad||_2 at the start of each iteration, and at the end
   double assemble_seconds = 0.0, analyse_seconds = 0.0, factorize_seconds = 0.0, solve_seconds = 0.0,
          line_search_seconds = 0.0;

@@ -39,7 +39,8 @@ TEST(SceneFile, FullSceneParsesToTheGivenValues) {
   json s = valid_scene();
   s["name"] = "full";
   s["gravity"] = {0, 0, -9.8};
-  s["solver"] = {{"tolerance", 1e-4}, {"max_newton_iterations", 50}, {"hessian_projection", "abs"}};
+  s["solver"] = {{"tolerance", 1e-4}, {"max_newton_iterations", 50}, {"hessian_projection", "abs"},
+                 {"friction_stopping", "uniform"}};
   s["wind"] = {{"air_velocity", {0, 0, 4}}, {"air_density", 1.25}, {"drag_coefficient", 0.8},
                {"gust_amplitude", 0.5}, {"gust_frequency", 0.7}};
   json& o = s["objects"][0];
@@ -70,6 +71,7 @@ TEST(SceneFile, FullSceneParsesToTheGivenValues) {
   EXPECT_DOUBLE_EQ(scene.solver.tolerance, 1e-4);
   EXPECT_EQ(scene.solver.max_newton_iterations, 50);
   EXPECT_EQ(scene.solver.projection, HessianProjection::Abs);
+  EXPECT_EQ(scene.solver.friction_stopping, FrictionStopping::Uniform);
   ASSERT_TRUE(scene.wind.has_value());
   EXPECT_TRUE(scene.wind->air_velocity.isApprox(Vec3(0, 0, 4)));
   EXPECT_DOUBLE_EQ(scene.wind->air_density, 1.25);
@@ -129,6 +131,7 @@ TEST(SceneFile, OmittedOptionalKeysGetTheirDocumentedDefaults) {
   EXPECT_FALSE(scene.wind.has_value());
   EXPECT_DOUBLE_EQ(scene.solver.tolerance, 1e-3);
   EXPECT_EQ(scene.solver.max_newton_iterations, 200);
+  EXPECT_EQ(scene.solver.friction_stopping, FrictionStopping::Contacts);
   EXPECT_EQ(scene.solver.projection, HessianProjection::Clamp);
   const SceneObject& o = scene.objects.at(0);
   EXPECT_EQ(o.name, "object_0");
@@ -438,6 +441,9 @@ TEST(SceneFileErrors, UnknownChoicesListTheAllowedValues) {
   s = valid_scene();
   s["solver"] = {{"hessian_projection", "project"}};
   expect_error(s, {"solver.hessian_projection: unknown Hessian projection", "\"none\", \"clamp\", \"abs\""});
+  s = valid_scene();
+  s["solver"] = {{"friction_stopping", "everywhere"}};
+  expect_error(s, {"solver.friction_stopping: unknown friction stopping rule", "\"contacts\", \"uniform\""});
   s = valid_scene();
   s["objects"][0]["pressure"] = {{"model", "van_der_waals"}, {"pressure", 10}};
   expect_error(s, {"objects[0].pressure.model: unknown pressure model", "\"constant\", \"ideal_gas\""});

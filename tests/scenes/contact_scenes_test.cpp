@@ -83,32 +83,43 @@ Vec3 com(const SceneRun& r, int frame, const std::string& object) {
   return r.frames[frame].center_of_mass.row(o).transpose();
 }
 
+int newton_iterations(const SceneRun& r) {
+  int n = 0;
+  for (const FrameRecord& f : r.frames) n += f.newton.iterations;
+  return n;
+}
+
 // Slope angles below and above the friction angle atan(0.5) = 26.6 deg: the 20 deg square stays
-// where it landed, the 35 deg square slides with a = g (sin 35 - 0.5 cos 35).
-TEST(ContactScenes, SlopeFrictionSticksBelowTheFrictionAngleAndSlidesAbove) {
-  const SceneRun r = run("slope-friction");
-  EXPECT_EQ(r.not_converged, 0);
-  const double kPi = 3.14159265358979323846;
-  auto along = [&](const char* sheet, double deg, int frame) {
-    const double t = deg * kPi / 180;
-    const Vec3 downhill(-std::cos(t), -std::sin(t), 0);
-    return (com(r, frame, sheet) - com(r, 0, sheet)).dot(downhill);
-  };
-  const int last = r.scene.frames;
-  const double duration = last * r.scene.time_step;
-  // Both squares first fall 2 mm onto their slopes (about 0.02 s) and settle into the barrier's
-  // gap; from frame 10 on, the gentle one must not creep (eps_v = 1 mm/s allows at most 0.5 mm).
-  const double landing = along("sheet_gentle", 20, 10), gentle = along("sheet_gentle", 20, last) - landing;
-  std::printf("gentle slope: %.3g mm downhill while landing, then %.3g mm in %.2f s\n", landing * 1e3, gentle * 1e3,
-              duration - 0.1);
-  EXPECT_LT(std::abs(gentle), 0.5e-3);
-  const double a = 9.81 * (std::sin(35 * kPi / 180) - 0.5 * std::cos(35 * kPi / 180));
-  const double steep = along("sheet_steep", 35, last), expected = 0.5 * a * duration * duration;
-  std::printf("steep slope: %.4f m downhill in %.2f s, Coulomb sliding from rest %.4f m (ratio %.3f)\n", steep,
-              duration, expected, steep / expected);
-  EXPECT_NEAR(steep / expected, 1.0, 0.15);
-  // Both were in contact from the landing on, with friction acting.
-  EXPECT_GT(stat(r.frames[last], "friction_contacts"), 0);
+// where it landed, the 35 deg square slides with a = g (sin 35 - 0.5 cos 35); with both of
+// Newton's friction stopping rules (solver.friction_stopping).
+TEST(ContactScenes, SlopeFrictionSticksBelowTheFrictionAngleAndSlidesAboveWithEitherStoppingRule) {
+  for (const char* rule : {"contacts", "uniform"}) {
+    SCOPED_TRACE(rule);
+    const SceneRun r = run("slope-friction", [rule](json& j) { j["solver"]["friction_stopping"] = rule; });
+    EXPECT_EQ(r.not_converged, 0);
+    const double kPi = 3.14159265358979323846;
+    auto along = [&](const char* sheet, double deg, int frame) {
+      const double t = deg * kPi / 180;
+      const Vec3 downhill(-std::cos(t), -std::sin(t), 0);
+      return (com(r, frame, sheet) - com(r, 0, sheet)).dot(downhill);
+    };
+    const int last = r.scene.frames;
+    const double duration = last * r.scene.time_step;
+    // Both squares first fall 2 mm onto their slopes (about 0.02 s) and settle into the barrier's
+    // gap; from frame 10 on, the gentle one must not creep (eps_v = 1 mm/s allows at most 0.5 mm).
+    const double landing = along("sheet_gentle", 20, 10), gentle = along("sheet_gentle", 20, last) - landing;
+    std::printf("%s: gentle slope: %.3g mm downhill while landing, then %.3g mm in %.2f s\n", rule, landing * 1e3,
+                gentle * 1e3, duration - 0.1);
+    EXPECT_LT(std::abs(gentle), 0.5e-3);
+    const double a = 9.81 * (std::sin(35 * kPi / 180) - 0.5 * std::cos(35 * kPi / 180));
+    const double steep = along("sheet_steep", 35, last), expected = 0.5 * a * duration * duration;
+    std::printf("%s: steep slope: %.4f m downhill in %.2f s, Coulomb sliding from rest %.4f m (ratio %.3f); %d Newton "
+                "iterations\n",
+                rule, steep, duration, expected, steep / expected, newton_iterations(r));
+    EXPECT_NEAR(steep / expected, 1.0, 0.15);
+    // Both were in contact from the landing on, with friction acting.
+    EXPECT_GT(stat(r.frames[last], "friction_contacts"), 0);
+  }
 }
 
 // A heavy stiff box on a soft pinned sheet: it dents the sheet, is thrown back up (its centre's

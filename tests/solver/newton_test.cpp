@@ -116,5 +116,32 @@ TEST(Newton, MaxIterationsIsReportedNotHidden) {
   EXPECT_EQ(r.iterations, 2);
 }
 
+TEST(Newton, TheTangentialTestKeepsIteratingUntilTheContactsStepIsBelowItsOwnTolerance) {
+  IncrementalPotential ip;
+  ip.add_term(std::make_unique<QuarticTerm>(Eigen::VectorXd::LinSpaced(12, -2, 2), 0.5));
+  HessianAssembly H;
+  CholmodSolver solver;
+  Eigen::VectorXd loose_x = Eigen::VectorXd::Zero(12);
+  const NewtonReport loose = newton_minimize(ip, loose_x, settings(1e-2), H, solver);
+  ASSERT_TRUE(loose.converged) << loose.stop_reason;
+  EXPECT_TRUE(loose.tangential_measures.empty());
+
+  // "Contact" on dof 0 only: its step must fall below 1e-10 while the rest stops at 1e-2.
+  NewtonSettings s = settings(1e-2);
+  s.tangential_step = [](const Eigen::VectorXd& p) { return std::abs(p[0]); };
+  s.tangential_tolerance = 1e-10;
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(12);
+  const NewtonReport tight = newton_minimize(ip, x, s, H, solver);
+  ASSERT_TRUE(tight.converged) << tight.stop_reason;
+  EXPECT_GT(tight.iterations, loose.iterations);
+  ASSERT_FALSE(tight.tangential_measures.empty());
+  EXPECT_LT(tight.tangential_measures.back(), 1e-10);
+  for (size_t k = 0; k + 1 < tight.tangential_measures.size(); ++k)
+    EXPECT_GE(tight.tangential_measures[k], 1e-10) << "an earlier passing test would have stopped";
+  // Checked only where the step test passed: fewer entries than iterations.
+  EXPECT_LE(tight.tangential_measures.size(), static_cast<size_t>(tight.iterations));
+  EXPECT_LT(std::abs(ip.gradient(x)[0]), 1e-8);
+}
+
 }  // namespace
 }  // namespace pd

@@ -1,5 +1,6 @@
 #include "physics/contact/friction.h"
 
+#include <algorithm>
 #include <array>
 #include <cassert>
 #include <cmath>
@@ -76,6 +77,17 @@ Eigen::Vector2d FrictionTerm::tangential_displacement(const FrictionContact& c, 
     dx += c.weights[k] * (x.segment<3>(3 * v) - x_start_.segment<3>(3 * v));
   }
   return c.basis.transpose() * dx;
+}
+
+double FrictionTerm::max_tangential_step(const Eigen::VectorXd& p) const {
+  assert(contacts_.empty() || p.size() == x_start_.size());
+  double worst = 0.0;
+  for (const FrictionContact& c : contacts_) {
+    Vec3 dp = Vec3::Zero();
+    for (int k = 0; k < c.count; ++k) dp += c.weights[k] * p.segment<3>(3 * c.vertices[k]);
+    worst = std::max(worst, (c.basis.transpose() * dp).norm());
+  }
+  return worst;
 }
 
 double FrictionTerm::value(const Eigen::VectorXd& x) const {

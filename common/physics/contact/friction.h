@@ -81,6 +81,11 @@ class FrictionTerm : public EnergyTerm {
   // eps_u = eps_v * h of the current step, m (0 before the first begin_step).
   double eps_u() const { return eps_v_ * h_; }
 
+  // The largest change, over the lagged contacts, that a displacement p (stacked like x, m) makes
+  // to a contact's relative tangential displacement: max_c |T^T sum_k w_k p_k|, m (0 without
+  // contacts). Newton's friction stopping test (solver/newton.h) divides it by h.
+  double max_tangential_step(const Eigen::VectorXd& p) const;
+
  private:
   // u of contact c at x (m).
   Eigen::Vector2d tangential_displacement(const FrictionContact& c, const Eigen::VectorXd& x) const;

@@ -240,6 +240,24 @@ TEST(FrictionTerm, AtTheStartOfTheStepGradientIsZeroAndHessianIsTheStickingLimit
 
 // Translating a whole stencil rigidly leaves u unchanged, from rest (energy stays at the constant
 // mu lambda eps_u / 3, zero gradient) and from a sliding state (energy and gradient unchanged).
+TEST(FrictionTerm, MaxTangentialStepIsTheLargestSlipChangeAStepMakesAndIgnoresNormalAndRigidMotion) {
+  LaggedTerm t;
+  // A step whose contact i changes its slip by |u_i| (m), plus normal motion and a rigid
+  // translation of each stencil (displaced() adds both), measured from x_start.
+  const std::vector<Eigen::Vector2d> u = {0.004 * dir(0.3), 0.011 * dir(1.9), 0.002 * dir(-0.4),
+                                          0.007 * dir(2.5), 0.0005 * dir(0.8)};
+  const Eigen::VectorXd p = t.c.displaced(u) - t.c.x_start;
+  EXPECT_NEAR(t.term.max_tangential_step(p), 0.011, 1e-15);
+  // A zero step, and a rigid translation of contact 4's stencil: no slip change.
+  EXPECT_EQ(t.term.max_tangential_step(Eigen::VectorXd::Zero(t.c.x_start.size())), 0.0);
+  Eigen::VectorXd rigid = Eigen::VectorXd::Zero(t.c.x_start.size());
+  for (int v : {10, 11, 12, 13}) rigid.segment<3>(3 * v) = Vec3(0.3, -0.1, 0.2);
+  EXPECT_NEAR(t.term.max_tangential_step(rigid), 0.0, 1e-15);
+  // Without contacts (before any begin_step) it is zero.
+  const FrictionTerm empty(Contacts::kEpsV);
+  EXPECT_EQ(empty.max_tangential_step(p), 0.0);
+}
+
 TEST(FrictionTerm, RigidTranslationOfAStencilDoesNotChangeSlipEnergyOrGradient) {
   LaggedTerm t;
   const double eps_u = t.term.eps_u();
