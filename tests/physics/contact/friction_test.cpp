@@ -238,8 +238,6 @@ TEST(FrictionTerm, AtTheStartOfTheStepGradientIsZeroAndHessianIsTheStickingLimit
   EXPECT_GE(fd.steps_within(1e-4), 2);
 }
 
-// Translating a whole stencil rigidly leaves u unchanged, from rest (energy stays at the constant
-// mu lambda eps_u / 3, zero gradient) and from a sliding state (energy and gradient unchanged).
 TEST(FrictionTerm, MaxTangentialStepIsTheLargestSlipChangeAStepMakesAndIgnoresNormalAndRigidMotion) {
   LaggedTerm t;
   // A step whose contact i changes its slip by |u_i| (m), plus normal motion and a rigid
@@ -258,6 +256,8 @@ TEST(FrictionTerm, MaxTangentialStepIsTheLargestSlipChangeAStepMakesAndIgnoresNo
   EXPECT_EQ(empty.max_tangential_step(p), 0.0);
 }
 
+// Translating a whole stencil rigidly leaves u unchanged, from rest (energy stays at the constant
+// mu lambda eps_u / 3, zero gradient) and from a sliding state (energy and gradient unchanged).
 TEST(FrictionTerm, RigidTranslationOfAStencilDoesNotChangeSlipEnergyOrGradient) {
   LaggedTerm t;
   const double eps_u = t.term.eps_u();
