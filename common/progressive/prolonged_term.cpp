@@ -2,7 +2,6 @@
 
 #include <cstring>
 #include <limits>
-#include <map>
 #include <stdexcept>
 #include <utility>
 
@@ -106,7 +105,7 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
   // two-vertex element whose other blocks are zero. The block list depends only on the meshes and
   // the prolongation's sparsity pattern (J's is fixed: every fine vertex's 3x9 block), so the stencil
   // sequence repeats from one assembly to the next and the coarse pattern is analysed once.
-  for (const GalerkinBlock& b : blocks_) {
+  for (const GalerkinProduct::Block& b : product_.blocks()) {
     if (b.i == b.j) {
       hessian.add<1>({b.i}, b.block);
     } else {
@@ -117,31 +116,12 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
   }
 }
 
-// The fine Hessian (each element block projected as asked), made full from its stored lower
-// triangle, carried through the prolongation's Jacobian (U when frozen), and cut into 3x3 vertex
-// blocks of its lower block triangle.
+// The fine Hessian (each element block projected as asked) carried through the prolongation's
+// Jacobian (U when frozen): its lower block triangle, from galerkin_product.h.
 void ProlongedTerm::compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection) const {
   fine_hessian_.begin(3 * state_->num_fine());
   fine_->add_hessian(state_->fine_positions(x), projection, fine_hessian_);
-  const HessianAssembly::SparseMatrix& lower = fine_hessian_.finish(nullptr);
-  const Eigen::SparseMatrix<double> strict_lower = lower.triangularView<Eigen::StrictlyLower>();
-  const Eigen::SparseMatrix<double> full = Eigen::SparseMatrix<double>(lower) + Eigen::SparseMatrix<double>(strict_lower.transpose());
-  const Eigen::SparseMatrix<double>& J = state_->jacobian(x);
-  const Eigen::SparseMatrix<double> G = Eigen::SparseMatrix<double>(J.transpose()) * (full * J);
-
-  blocks_.clear();
-  const int nc = state_->num_coarse();
-  for (int j = 0; j < nc; ++j) {
-    std::map<int, Mat3> column;  // row vertex i >= j -> block (rows of i, columns of j)
-    for (int b = 0; b < 3; ++b)
-      for (Eigen::SparseMatrix<double>::InnerIterator it(G, 3 * j + b); it; ++it) {
-        const int i = static_cast<int>(it.row()) / 3;
-        if (i < j) continue;
-        auto found = column.try_emplace(i, Mat3::Zero()).first;
-        found->second(static_cast<int>(it.row()) % 3, b) = it.value();
-      }
-    for (const auto& [i, block] : column) blocks_.push_back({i, j, block});
-  }
+  product_.compute(fine_hessian_.finish(nullptr), state_->jacobian(x));
 }
 
 double ProlongedTerm::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const {

@@ -54,6 +54,7 @@
 
 #include "hierarchy/shell_prolongation.h"
 #include "physics/energy_term.h"
+#include "progressive/galerkin_product.h"
 
 namespace pd {
 
@@ -148,15 +149,10 @@ class ProlongedTerm : public EnergyTerm {
   std::shared_ptr<ProlongationState> state_;
   ProlongedHessian mode_;
   std::unique_ptr<EnergyTerm> coarse_;
-  // J^T H_fine J as 3x3 blocks (i, j), i >= j coarse vertex ids, column by column.
-  struct GalerkinBlock {
-    int i, j;
-    Mat3 block;
-  };
   void compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection) const;
 
   mutable HessianAssembly fine_hessian_;  // reused so its sparsity pattern is analysed once
-  mutable std::vector<GalerkinBlock> blocks_;
+  mutable GalerkinProduct product_;  // holds J^T H_fine J's blocks between refreshes
   // Lagged bookkeeping: begin_step marks the blocks stale; they were computed with blocks_projection_,
   // assemblies_since_refresh_ assemblies ago.
   mutable bool blocks_stale_ = true;

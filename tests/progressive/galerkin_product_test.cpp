@@ -1,0 +1,132 @@
+// The blocked Galerkin product (progressive/galerkin_product.h) against a dense J^T H J: every lower
+// block present and equal, every absent block zero, the order column by column, plans reused while
+// the patterns repeat and rebuilt when they change, partial blocks (U (x) I3's diagonal entries), and
+// sizes that do not fit.
+#include "progressive/galerkin_product.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <set>
+#include <utility>
+#include <vector>
+
+namespace pd {
+namespace {
+
+using Sparse = Eigen::SparseMatrix<double>;
+
+// J with three distinct coarse parents per fine vertex; full 3x3 blocks, or only their diagonals
+// (the frozen mode's U (x) I3).
+Sparse random_jacobian(int nf, int nc, bool diagonal_only, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Eigen::Triplet<double>> t;
+  for (int a = 0; a < nf; ++a) {
+    std::set<int> parents;
+    while (parents.size() < 3) parents.insert(static_cast<int>(rng() % nc));
+    for (int q : parents)
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+          if (!diagonal_only || r == c) t.emplace_back(3 * a + r, 3 * q + c, u(rng));
+  }
+  Sparse J(3 * nf, 3 * nc);
+  J.setFromTriplets(t.begin(), t.end());
+  return J;
+}
+
+// A symmetric H on a random block pattern (every diagonal block and `pairs` vertex pairs), its lower
+// triangle stored, as HessianAssembly::finish gives it.
+Sparse random_lower_hessian(int nf, int pairs, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::set<std::pair<int, int>> blocks;
+  for (int a = 0; a < nf; ++a) blocks.insert({a, a});
+  while (static_cast<int>(blocks.size()) < nf + pairs) {
+    const int a = static_cast<int>(rng() % nf), b = static_cast<int>(rng() % nf);
+    blocks.insert({std::max(a, b), std::min(a, b)});
+  }
+  std::vector<Eigen::Triplet<double>> t;
+  for (const auto& [a, b] : blocks)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        if (a != b || r >= c) t.emplace_back(3 * a + r, 3 * b + c, u(rng));
+  Sparse H(3 * nf, 3 * nf);
+  H.setFromTriplets(t.begin(), t.end());
+  return H;
+}
+
+Eigen::MatrixXd dense_galerkin(const Sparse& H_lower, const Sparse& J) {
+  const Eigen::MatrixXd L = Eigen::MatrixXd(H_lower);
+  const Eigen::MatrixXd H = L + Eigen::MatrixXd(L.triangularView<Eigen::StrictlyLower>()).transpose();
+  const Eigen::MatrixXd Jd = Eigen::MatrixXd(J);
+  return Jd.transpose() * H * Jd;
+}
+
+// Compares every lower 3x3 block of the dense G with the product's; returns the comparisons made.
+int expect_matches_dense(const std::vector<GalerkinProduct::Block>& blocks, const Eigen::MatrixXd& G) {
+  const int nc = static_cast<int>(G.rows() / 3);
+  std::vector<std::vector<const Mat3*>> found(nc, std::vector<const Mat3*>(nc, nullptr));
+  for (size_t k = 0; k < blocks.size(); ++k) {
+    const GalerkinProduct::Block& b = blocks[k];
+    EXPECT_GE(b.i, b.j);
+    EXPECT_EQ(found[b.i][b.j], nullptr) << "block (" << b.i << ", " << b.j << ") twice";
+    found[b.i][b.j] = &b.block;
+    if (k > 0) {
+      const GalerkinProduct::Block& prev = blocks[k - 1];
+      EXPECT_TRUE(prev.j < b.j || (prev.j == b.j && prev.i < b.i)) << "not column by column at " << k;
+    }
+  }
+  const double scale = G.cwiseAbs().maxCoeff();
+  int compared = 0;
+  for (int j = 0; j < nc; ++j)
+    for (int i = j; i < nc; ++i) {
+      const Mat3 dense = G.block<3, 3>(3 * i, 3 * j);
+      const Mat3 got = found[i][j] ? *found[i][j] : Mat3::Zero();
+      EXPECT_LE((got - dense).cwiseAbs().maxCoeff(), 1e-13 * scale) << "block (" << i << ", " << j << ")";
+      ++compared;
+    }
+  return compared;
+}
+
+TEST(GalerkinProduct, EqualsTheDenseProductBlockByBlockInColumnOrder) {
+  std::mt19937 rng(7);
+  const Sparse J = random_jacobian(40, 12, false, rng);
+  const Sparse H = random_lower_hessian(40, 90, rng);
+  GalerkinProduct product;
+  const int compared = expect_matches_dense(product.compute(H, J), dense_galerkin(H, J));
+  EXPECT_EQ(compared, 12 * 13 / 2);
+}
+
+TEST(GalerkinProduct, ReusesItsPlansForNewValuesAndRebuildsThemForANewPattern) {
+  std::mt19937 rng(11);
+  const Sparse J = random_jacobian(30, 10, false, rng);
+  const Sparse H = random_lower_hessian(30, 60, rng);
+  GalerkinProduct product;
+  product.compute(H, J);
+  Sparse H2 = H, J2 = J;
+  for (int k = 0; k < H2.nonZeros(); ++k) H2.valuePtr()[k] *= 1.0 + 0.01 * k;
+  for (int k = 0; k < J2.nonZeros(); ++k) J2.valuePtr()[k] -= 0.003 * k;
+  EXPECT_GT(expect_matches_dense(product.compute(H2, J2), dense_galerkin(H2, J2)), 0);
+  EXPECT_EQ(product.plans_built(), 1);
+  const Sparse H3 = random_lower_hessian(30, 20, rng);
+  EXPECT_GT(expect_matches_dense(product.compute(H3, J2), dense_galerkin(H3, J2)), 0);
+  EXPECT_EQ(product.plans_built(), 2);
+}
+
+TEST(GalerkinProduct, HandlesPartialBlocksOfTheFrozenProlongation) {
+  std::mt19937 rng(3);
+  const Sparse U = random_jacobian(25, 9, true, rng);
+  const Sparse H = random_lower_hessian(25, 40, rng);
+  GalerkinProduct product;
+  EXPECT_EQ(expect_matches_dense(product.compute(H, U), dense_galerkin(H, U)), 9 * 10 / 2);
+}
+
+TEST(GalerkinProduct, RefusesSizesThatDoNotFit) {
+  std::mt19937 rng(5);
+  const Sparse J = random_jacobian(10, 5, false, rng);
+  GalerkinProduct product;
+  EXPECT_THROW(product.compute(random_lower_hessian(9, 5, rng), J), std::invalid_argument);
+  EXPECT_THROW(product.compute(Sparse(31, 31), Sparse(31, 15)), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace pd
