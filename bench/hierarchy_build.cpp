@@ -33,10 +33,18 @@
 //   --max-fine N  skip the transitions to levels of more than N vertices
 //   --states rest|bent|both   which coarse states (default both)
 //   --file PATH   the HDF5 file for the write/read test (default /tmp/pd_bench_hierarchy.h5; removed)
+//   --build-only  only build_scene_hierarchy (time and content hash): no HDF5, no safe upsampling
+//   --threads N   threads for the hierarchy's location tasks and element loops (default every core)
+//
+// Every build prints a "content hash": FNV-1a over every array of the built hierarchy (per object
+// level: mesh, maps, collapse records, batches; per scene level: mesh, offsets, both operators'
+// locations, U, offsets). SceneHierarchy::hash only digests the inputs, so this is the check that a
+// change to the build leaves its result bit-identical.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdarg>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -55,6 +63,8 @@
 #include "hierarchy/scene_hierarchy.h"
 #include "store/frame_store.h"
 #include "store/hierarchy_store.h"
+#include "util/fnv1a.h"
+#include "util/parallel.h"
 #include "util/process_setup.h"
 
 using namespace pd;
@@ -120,7 +130,92 @@ struct Options {
   int max_fine = 0;            // > 0: skip transitions to a level with more vertices
   std::vector<int> states = {0, 1};  // 0 rest, 1 bent
   std::string file = "/tmp/pd_bench_hierarchy.h5";
+  bool build_only = false;
 };
+
+// FNV-1a (util/fnv1a.h) over every array of a hierarchy, doubles bit for bit; sizes go first so that
+// arrays that split differently hash apart.
+class ContentHash {
+ public:
+  void bytes(const void* data, std::size_t size) { h_.bytes(data, size); }
+  void i64(long long v) { h_.i64(v); }
+  template <class T> void vec(const std::vector<T>& v) {
+    i64(static_cast<long long>(v.size()));
+    if (!v.empty()) bytes(v.data(), v.size() * sizeof(T));
+  }
+  template <class M> void mat(const M& m) {
+    i64(m.rows());
+    i64(m.cols());
+    for (Eigen::Index i = 0; i < m.rows(); ++i)
+      for (Eigen::Index j = 0; j < m.cols(); ++j) {
+        const auto x = m(i, j);
+        bytes(&x, sizeof x);
+      }
+  }
+  void sparse(const Eigen::SparseMatrix<double>& m) {
+    i64(m.rows());
+    i64(m.cols());
+    for (int k = 0; k < m.outerSize(); ++k)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(m, k); it; ++it) {
+        i64(it.row());
+        i64(it.col());
+        const double v = it.value();
+        bytes(&v, sizeof v);
+      }
+  }
+  void prolongation(const std::optional<ShellProlongation>& p) {
+    i64(p ? 1 : 0);
+    if (!p) return;
+    for (const SurfaceLocation& s : p->locations()) {
+      i64(s.face);
+      mat(s.bary);
+    }
+    sparse(p->U());
+    vec(p->normal_offsets());
+    for (const Eigen::Vector2d& t : p->tangent_offsets()) mat(t);
+  }
+  std::uint64_t value() const { return h_.value(); }
+
+ private:
+  Fnv1a h_;
+};
+
+std::uint64_t content_hash(const SceneHierarchy& h) {
+  ContentHash c;
+  for (const ObjectHierarchy& oh : h.objects) {
+    for (const Level& lv : oh.levels) {
+      c.mat(lv.mesh.V);
+      c.mat(lv.mesh.F);
+      c.vec(lv.to_finest);
+      c.vec(lv.coarse_to_fine);
+      c.vec(lv.fine_to_coarse);
+      c.i64(static_cast<long long>(lv.collapses.size()));
+      for (const Collapse& k : lv.collapses) {
+        c.i64(k.removed);
+        c.i64(k.kept);
+        c.mat(k.removed_position);
+        c.mat(k.kept_position_before);
+        c.mat(k.kept_position_after);
+        c.vec(k.faces_before);
+        c.vec(k.faces_after);
+      }
+    }
+    for (const auto& level_batches : oh.batches) {
+      c.i64(static_cast<long long>(level_batches.size()));
+      for (const std::vector<int>& b : level_batches) c.vec(b);
+    }
+  }
+  for (const SceneLevel& s : h.levels) {
+    c.mat(s.rest.V);
+    c.mat(s.rest.F);
+    c.vec(s.vertex_offsets);
+    c.vec(s.face_offsets);
+    c.vec(s.to_finest);
+    c.prolongation(s.to_next);
+    c.prolongation(s.to_finest_prolongation);
+  }
+  return c.value();
+}
 
 Options parse(int argc, char** argv) {
   Options o;
@@ -137,6 +232,15 @@ Options parse(int argc, char** argv) {
       o.cap = std::atof(argv[++i]);
     } else if (a == "--file" && i + 1 < argc) {
       o.file = argv[++i];
+    } else if (a == "--build-only") {
+      o.build_only = true;
+    } else if (a == "--threads" && i + 1 < argc) {
+      const int n = std::atoi(argv[++i]);
+      if (n < 1) {
+        std::fprintf(stderr, "pd_bench_hierarchy: --threads wants a count >= 1, got %s\n", argv[i]);
+        std::exit(2);
+      }
+      pd::set_element_threads(n);
     } else if (a == "sheet" || a == "sphere") {
       o.runs.push_back({a, {}});
     } else if (!o.runs.empty() && std::atoi(a.c_str()) > 0) {
@@ -262,6 +366,13 @@ double run_size(const std::string& shape, int cells, const Options& opt, std::ve
     counts += fmt("%s%d", l ? " / " : "", r.vertices);
     if (l + 1 < report.size()) errors += fmt("%s%.1e", l ? " / " : "", r.rest_prolongation_error);
   }
+  const std::uint64_t content = content_hash(h);
+  std::printf("build %.3f s, content hash %016llx\n", build, static_cast<unsigned long long>(content));
+  if (opt.build_only) {
+    build_rows.push_back(fmt("| %s | %s | %.2f | %016llx | %s |", shape.c_str(), counts.c_str(), build,
+                             static_cast<unsigned long long>(content), errors.c_str()));
+    return build;
+  }
 
   // HDF5: a fresh frame file, then the hierarchy into it; read back.
   std::filesystem::remove(opt.file);
@@ -372,6 +483,12 @@ int main(int argc, char** argv) {
       build = run_size(shape, cells, opt, state_seconds);
       if (build < 0) break;
     }
+  }
+  if (opt.build_only) {
+    std::printf("\n| shape | vertices per level (0 = coarsest) | build s | content hash | rest prolongation error, "
+                "levels 0 / 1 / 2 (m) |\n| --- | --- | ---: | --- | --- |\n");
+    for (const std::string& r : build_rows) std::printf("%s\n", r.c_str());
+    return 0;
   }
   std::printf("\n| shape | vertices per level (0 = coarsest) | build s | HDF5 write s | read s | file MiB | rest "
               "prolongation error, levels 0 / 1 / 2 (m) |\n| --- | --- | ---: | ---: | ---: | ---: | --- |\n");

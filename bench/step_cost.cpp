@@ -16,6 +16,7 @@
 
 #include "geometry/shapes.h"
 #include "progressive/level_stepper.h"
+#include "util/fnv1a.h"
 #include "util/parallel.h"
 #include "util/process_setup.h"
 
@@ -71,13 +72,11 @@ int main(int argc, char** argv) {
       solve += r.newton.solve_seconds;
       total += r.seconds;
     }
-    // FNV-1a over the bytes of x.
-    uint64_t hash = 1469598103934665603ull;
-    const auto* bytes = reinterpret_cast<const unsigned char*>(x.data());
-    for (size_t i = 0; i < sizeof(double) * static_cast<size_t>(x.size()); ++i) hash = (hash ^ bytes[i]) * 1099511628211ull;
+    Fnv1a hash;  // over the bytes of x
+    hash.bytes(x.data(), sizeof(double) * static_cast<std::size_t>(x.size()));
     std::printf("%8d %8d %6d %10.1f %10.2f %10.2f %10.2f %10.2f %10.1f %18llx\n", sys.rest.num_vertices(),
                 sys.rest.num_faces(), steps, double(its) / steps, 1e3 * assemble / its, 1e3 * analyse / steps,
-                1e3 * factorize / its, 1e3 * solve / its, 1e3 * total / steps, static_cast<unsigned long long>(hash));
+                1e3 * factorize / its, 1e3 * solve / its, 1e3 * total / steps, static_cast<unsigned long long>(hash.value()));
   }
   return 0;
 }

@@ -65,4 +65,9 @@ std::vector<SurfaceLocation> locate_through_collapses(const TriMesh& fine,
 std::vector<SurfaceLocation> locate_finest_on_level(const std::vector<Level>& levels, int level,
                                                     LocationStats* stats = nullptr);
 
+// locate_finest_on_level for every level at once: result[l] == locate_finest_on_level(levels, l),
+// bit for bit. Why: the finest vertices are tracked down the levels once (each level's collapses
+// once) instead of once per level (the finest level's collapses L times).
+std::vector<std::vector<SurfaceLocation>> locate_finest_on_all_levels(const std::vector<Level>& levels);
+
 }  // namespace pd

@@ -4,14 +4,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <numeric>
 #include <stdexcept>
 #include <string>
 
 #include "hierarchy/intrinsic_location.h"
 #include "hierarchy/split_batches.h"
+#include "util/fnv1a.h"
 #include "util/input_error.h"
+#include "util/parallel.h"
 
 namespace pd {
 namespace {
@@ -154,35 +155,6 @@ void append_locations(std::vector<SurfaceLocation>& out, std::vector<SurfaceLoca
   }
 }
 
-// Canonical byte stream -> 64-bit FNV-1a.
-class Fnv1a {
- public:
-  void bytes(const void* data, std::size_t size) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < size; ++i) {
-      h_ ^= p[i];
-      h_ *= 0x100000001b3ULL;
-    }
-  }
-  void i64(long long v) {
-    const std::int64_t x = v;
-    bytes(&x, sizeof x);
-  }
-  void f64(double v) { bytes(&v, sizeof v); }
-  void str(const std::string& s) {
-    i64(static_cast<long long>(s.size()));
-    bytes(s.data(), s.size());
-  }
-  std::string hex() const {
-    char buf[17];
-    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h_));
-    return buf;
-  }
-
- private:
-  std::uint64_t h_ = 0xcbf29ce484222325ULL;
-};
-
 std::string hash_of(const Scene& scene, const std::vector<ObjectPlan>& plans) {
   Fnv1a h;
   h.str(kFormatTag);
@@ -226,6 +198,59 @@ std::vector<ObjectPlan> plan_scene(const Scene& scene) {
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// One object's locations: to_finest[l] (the finest vertices on level l, every level) and to_next[l]
+// (level l + 1's vertices on level l, l < L), in the object's own ids.
+struct ObjectLocations {
+  std::vector<std::vector<SurfaceLocation>> to_finest, to_next;
+};
+
+// Every object's locations, computed as independent tasks in parallel. Per object with L > 0: task 0
+// tracks the finest vertices down every level (locate_finest_on_all_levels); its first leg, through
+// level L - 1's collapses, is exactly locate_through_collapses for L - 1 (the same points through the
+// same collapses; the ids differ only by a rotation, undone by the rows), so to_next[L - 1] is a
+// copy of to_finest[L - 1], not a second tracking of the largest leg. Task j (1 <= j < L) locates
+// level j's vertices on level j - 1. Each task writes only its own outputs, so the result does not
+// depend on the thread count. Adds each level's share of the time to seconds (the finest chain's by
+// collapse counts, as the decimation's). Errors mean records that do not fit their levels (a bug,
+// not bad input): std::logic_error naming the object and the level.
+std::vector<ObjectLocations> locate_objects(const Scene& scene, const std::vector<ObjectHierarchy>& objects,
+                                            std::vector<double>& seconds) {
+  const int L = scene.hierarchy.levels - 1;
+  const std::size_t nl = static_cast<std::size_t>(L) + 1, per_object = L > 0 ? static_cast<std::size_t>(L) : 1;
+  std::vector<ObjectLocations> out(objects.size());
+  for (ObjectLocations& o : out) o.to_next.resize(nl - 1);
+  std::vector<double> task_seconds(objects.size() * per_object, 0.0);
+  parallel_for_index(static_cast<int>(task_seconds.size()), [&](int t) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::size_t k = static_cast<std::size_t>(t) / per_object, task = static_cast<std::size_t>(t) % per_object;
+    const std::vector<Level>& lv = objects[k].levels;
+    try {
+      if (task == 0) {
+        out[k].to_finest = locate_finest_on_all_levels(lv);
+        if (L > 0) out[k].to_next[nl - 2] = out[k].to_finest[nl - 2];
+      } else {
+        const std::size_t l = task - 1;
+        out[k].to_next[l] = locate_through_collapses(lv[l + 1].mesh, lv[l].collapses, lv[l].mesh, lv[l].coarse_to_fine);
+      }
+    } catch (const std::invalid_argument& e) {
+      const std::string where = task == 0 ? std::string("finest locations") : level_label(static_cast<int>(task - 1), L);
+      throw std::logic_error(object_prefix(scene, k) + where + ": " + e.what());
+    }
+    task_seconds[static_cast<std::size_t>(t)] = seconds_since(t0);
+  }, 1);
+  for (std::size_t k = 0; k < objects.size(); ++k) {
+    std::size_t total = 0;
+    for (std::size_t l = 0; l + 1 < nl; ++l) total += objects[k].levels[l].collapses.size();
+    for (std::size_t l = 0; l + 1 < nl; ++l) {
+      if (l + 1 < per_object) seconds[l] += task_seconds[k * per_object + 1 + l];
+      if (total > 0)
+        seconds[l] += task_seconds[k * per_object] * static_cast<double>(objects[k].levels[l].collapses.size()) /
+                      static_cast<double>(total);
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -286,23 +311,17 @@ SceneHierarchy build_scene_hierarchy(const Scene& scene, std::vector<HierarchyLe
   }
 
   // Operators. Locations are computed per object (each on its own meshes) and shifted to the stacked
-  // face ids; errors here mean records that do not fit their levels (a bug, not bad input).
+  // face ids.
   const Positions& finest_rest = h.levels[static_cast<std::size_t>(L)].rest.V;
+  std::vector<ObjectLocations> located = locate_objects(scene, h.objects, seconds);
+  const std::size_t no = h.objects.size();
   for (std::size_t l = 0; l < nl; ++l) {
     const auto t0 = std::chrono::steady_clock::now();
     SceneLevel& s = h.levels[l];
     std::vector<SurfaceLocation> to_next, to_finest;
-    for (std::size_t k = 0; k < h.objects.size(); ++k) {
-      const std::vector<Level>& lv = h.objects[k].levels;
-      try {
-        if (l + 1 < nl)
-          append_locations(to_next,
-                           locate_through_collapses(lv[l + 1].mesh, lv[l].collapses, lv[l].mesh, lv[l].coarse_to_fine),
-                           s.face_offsets[k]);
-        append_locations(to_finest, locate_finest_on_level(lv, static_cast<int>(l)), s.face_offsets[k]);
-      } catch (const std::invalid_argument& e) {
-        throw std::logic_error(object_prefix(scene, k) + level_label(static_cast<int>(l), L) + ": " + e.what());
-      }
+    for (std::size_t k = 0; k < no; ++k) {
+      if (l + 1 < nl) append_locations(to_next, std::move(located[k].to_next[l]), s.face_offsets[k]);
+      append_locations(to_finest, std::move(located[k].to_finest[l]), s.face_offsets[k]);
     }
     if (l + 1 < nl) s.to_next.emplace(s.rest.V, s.rest.F, h.levels[l + 1].rest.V, to_next);
     s.to_finest_prolongation.emplace(s.rest.V, s.rest.F, finest_rest, to_finest);

@@ -29,12 +29,12 @@ int effective_element_threads();
 // Calls body(i) for every i in [0, count), on up to effective_element_threads() threads. body(i)
 // must write only outputs of index i (see the rule above). If bodies throw, the exception of the
 // lowest index that threw is rethrown after the loop (the one a serial loop would have thrown
-// first; with one thread, the loop stops there as a serial loop does).
+// first; with one thread, the loop stops there as a serial loop does). min_per_task: the fewest
+// indices a thread takes at once; the default suits element loops (~0.1-2 us per index: below 256
+// per thread the scheduling costs more than the work), 1 suits a few long tasks.
 template <class Body>
-void parallel_for_index(int count, const Body& body) {
-  // Below this many indices per thread the scheduling costs more than the work (elements take
-  // ~0.1-2 us each).
-  constexpr int kMinPerTask = 256;
+void parallel_for_index(int count, const Body& body, int min_per_task = 256) {
+  const int kMinPerTask = min_per_task < 1 ? 1 : min_per_task;
   if (count <= 0) return;
   if (effective_element_threads() == 1 || count < 2 * kMinPerTask) {
     for (int i = 0; i < count; ++i) body(i);

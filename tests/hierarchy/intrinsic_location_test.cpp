@@ -262,6 +262,27 @@ TEST(IntrinsicLocation, DirectVsComposedLevel0) {
   EXPECT_LT(diff, mean_edge(c0));
 }
 
+// The one-pass descent (used by build_scene_hierarchy) must give every level exactly what the
+// per-level function gives: same face, same barycentric bits, for every finest vertex.
+TEST(IntrinsicLocation, AllLevelsAtOnceMatchPerLevelBitForBit) {
+  const TriMesh fine = make_cylinder(0.3, 1.0, 40, 20, false);
+  const std::vector<Level> levels = build_levels(fine, settings(true, 3, {500, 250, 120}));
+  const auto all = locate_finest_on_all_levels(levels);
+  ASSERT_EQ(all.size(), levels.size());
+  std::size_t compared = 0;
+  for (std::size_t l = 0; l < levels.size(); ++l) {
+    const auto one = locate_finest_on_level(levels, static_cast<int>(l));
+    ASSERT_EQ(all[l].size(), one.size()) << "level " << l;
+    for (std::size_t i = 0; i < one.size(); ++i) {
+      EXPECT_EQ(all[l][i].face, one[i].face) << "level " << l << " vertex " << i;
+      EXPECT_TRUE((all[l][i].bary.array() == one[i].bary.array()).all()) << "level " << l << " vertex " << i;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, levels.size() * static_cast<std::size_t>(fine.num_vertices()));
+  EXPECT_THROW(locate_finest_on_all_levels(std::vector<Level>{}), std::invalid_argument);
+}
+
 TEST(IntrinsicLocation, Deterministic) {
   const TriMesh fine = make_cylinder(0.3, 1.0, 40, 20, false);
   const std::vector<Level> levels = build_levels(fine, settings(true, 2, {300, 120}));
