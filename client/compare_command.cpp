@@ -105,14 +105,15 @@ void check_same_scene(const FrameReader& a, const FrameReader& b) {
     throw InputError(head + "its finest rest mesh differs (by up to " + std::to_string(d) + " m)" + tail);
 }
 
-// How series m reaches the reference mesh for the vertex distance: itself when it is its file's finest
-// level or the reference, else prolonged with its file's stored hierarchy; sets the note when neither
-// gives the reference's mesh.
+// How series m reaches the reference mesh for the vertex distance: itself when its own mesh is the
+// reference's (the reference itself, its file's finest level against a finest reference, or two
+// previews of one scene against each other), else prolonged to its file's finest mesh with the file's
+// stored hierarchy; sets the note when neither gives the reference's mesh.
 void plan_vertex_distance(Measured& m, Source& src, const FrameReader& ref_reader, int ref_level, bool is_reference) {
   const FrameReader& r = src.reader;
   const int finest = r.num_levels() - 1;
   int mesh_level = m.s.level;
-  if (!is_reference && m.s.level != finest) {
+  if (!is_reference && m.s.level != finest && !same_mesh(r, m.s.level, ref_reader, ref_level)) {
     const std::optional<SceneHierarchy>& h = src.stored_hierarchy();
     if (!h || h->num_levels() != r.num_levels() ||
         h->levels[static_cast<std::size_t>(m.s.level)].rest.V.rows() != r.num_vertices(m.s.level) ||
@@ -351,12 +352,18 @@ void print_text(const nlohmann::json& j) {
   for (const nlohmann::json& l : j["levels"]) {
     const nlohmann::json& c = l["com_deviation_m"];
     const nlohmann::json& vd = l["vertex_distance_m"];
-    std::printf("%-40s %5d %7d %13.4g (%5d) %14.4g %14.4g %14.4g %14.4g\n", l["file"].get<std::string>().c_str(),
+    // A vertex distance that could not be measured shows as "n/a", its reason below the table.
+    char vd_max[32] = "n/a";
+    if (!vd.is_null()) std::snprintf(vd_max, sizeof vd_max, "%.4g", f(vd["max"]));
+    std::printf("%-40s %5d %7d %13.4g (%5d) %14.4g %14.4g %14s %14.4g\n", l["file"].get<std::string>().c_str(),
                 l["level"].get<int>(), l["frames"].get<int>(), f(c["max"]),
                 c["max_frame"].is_number() ? c["max_frame"].get<int>() : -1,
-                f(c["mean"]), f(l["kinetic_energy_J"]["last"]), vd.is_null() ? kNaN : f(vd["max"]),
-                f(l["hausdorff_m"]["max"]));
+                f(c["mean"]), f(l["kinetic_energy_J"]["last"]), vd_max, f(l["hausdorff_m"]["max"]));
   }
+  for (const nlohmann::json& l : j["levels"])
+    if (l.contains("vertex_distance_note"))
+      std::printf("%s level %d: vertex distance: %s\n", l["file"].get<std::string>().c_str(), l["level"].get<int>(),
+                  l["vertex_distance_note"].get<std::string>().c_str());
   if (!j["seam_jitter"].is_array()) return;
   for (const nlohmann::json& s : j["seam_jitter"])
     std::printf("seam jitter level %d: max seam d %.4g m/frame^2, median other d %.4g, ratio %s\n",
