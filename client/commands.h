@@ -20,7 +20,7 @@ struct SimulateArgs {
   int level = -1;           // direct: the hierarchy level to simulate (0 = coarsest)
   int levels = -1;          // override of the scene's hierarchy.levels
   bool preview_only = false;  // progressive: stop after level 0
-  // progressive: "galerkin", "lagged" or "coarse" (progressive/prolonged_term.h); empty: not given (lagged)
+  // progressive: "galerkin", "lagged", "coarse" or "coarse-first" (progressive/prolonged_term.h); empty: not given (lagged)
   std::string hessian;
   bool force = false;  // replace an existing `out` that is not a frame file
   // Steps that stop before convergence make pd simulate exit 3 (frames kept); with this, 0 and a

@@ -79,7 +79,7 @@ SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarc
     Faces fine_faces = obj.rest.F;
     fine_faces.array() += fine_offset;
     add_shell_forces(obj, fine_faces, fine_offset, finest.rest.V, finest_initial, fine_terms);
-    if (options.hessian == ProlongedHessian::Coarse) {
+    if (options.hessian == ProlongedHessian::Coarse || options.hessian == ProlongedHessian::CoarseFirst) {
       const SceneObject& coarse_obj = at_level.objects[o];
       Faces coarse_faces = coarse_obj.rest.F;
       coarse_faces.array() += coarse_offset;

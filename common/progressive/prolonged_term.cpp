@@ -1,5 +1,6 @@
 #include "progressive/prolonged_term.h"
 
+#include <algorithm>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -11,7 +12,8 @@ ProlongedHessian parse_prolonged_hessian(const std::string& name) {
   if (name == "galerkin") return ProlongedHessian::Galerkin;
   if (name == "lagged") return ProlongedHessian::Lagged;
   if (name == "coarse") return ProlongedHessian::Coarse;
-  throw std::invalid_argument("unknown prolonged Hessian '" + name + "': use galerkin, lagged or coarse");
+  if (name == "coarse-first") return ProlongedHessian::CoarseFirst;
+  throw std::invalid_argument("unknown prolonged Hessian '" + name + "': use galerkin, lagged, coarse or coarse-first");
 }
 
 ProlongationState::ProlongationState(const ShellProlongation& prolongation, const Eigen::VectorXd& coarse_rest,
@@ -70,8 +72,8 @@ ProlongedTerm::ProlongedTerm(std::unique_ptr<EnergyTerm> fine, std::shared_ptr<P
                              ProlongedHessian mode, std::unique_ptr<EnergyTerm> coarse_stand_in)
     : fine_(std::move(fine)), state_(std::move(state)), mode_(mode), coarse_(std::move(coarse_stand_in)) {
   if (!fine_ || !state_) throw std::invalid_argument("ProlongedTerm: needs a fine term and a prolongation state");
-  if (mode_ == ProlongedHessian::Coarse && !coarse_)
-    throw std::invalid_argument("ProlongedTerm: the Coarse Hessian needs a stand-in term on the level's mesh");
+  if ((mode_ == ProlongedHessian::Coarse || mode_ == ProlongedHessian::CoarseFirst) && !coarse_)
+    throw std::invalid_argument("ProlongedTerm: the Coarse and CoarseFirst Hessians need a stand-in term on the level's mesh");
 }
 
 double ProlongedTerm::value(const Eigen::VectorXd& x) const {
@@ -94,6 +96,11 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
     coarse_->add_hessian(x, projection, hessian);
     return;
   }
+  if (mode_ == ProlongedHessian::CoarseFirst && assemblies_in_step_++ < kCoarseFirstAssemblies) {
+    compute_coarse_blocks(x, projection);
+    add_blocks(coarse_blocks_, product_.blocks(), hessian);
+    return;
+  }
   if (mode_ == ProlongedHessian::Galerkin || blocks_stale_ || projection != blocks_projection_ ||
       ++assemblies_since_refresh_ >= kLaggedRefreshEvery) {
     compute_galerkin_blocks(x, projection);
@@ -101,18 +108,70 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
     blocks_projection_ = projection;
     assemblies_since_refresh_ = 0;
   }
-  // A diagonal block as a one-vertex element, an off-diagonal block (i > j) as the (i, j) block of a
-  // two-vertex element whose other blocks are zero. The block list depends only on the meshes and
-  // the prolongation's sparsity pattern (J's is fixed: every fine vertex's 3x9 block), so the stencil
-  // sequence repeats from one assembly to the next and the coarse pattern is analysed once.
-  for (const GalerkinProduct::Block& b : product_.blocks()) {
-    if (b.i == b.j) {
-      hessian.add<1>({b.i}, b.block);
+  add_blocks(product_.blocks(), coarse_blocks_, hessian);
+}
+
+namespace {
+
+// (column, row) order of lower-triangle blocks: the order both block lists are kept in.
+bool before(const GalerkinProduct::Block& a, const GalerkinProduct::Block& b) {
+  return a.j != b.j ? a.j < b.j : a.i < b.i;
+}
+
+void add_block(int i, int j, const Mat3& block, HessianAssembly& hessian) {
+  if (i == j) {
+    hessian.add<1>({i}, block);
+  } else {
+    Eigen::Matrix<double, 6, 6> pair = Eigen::Matrix<double, 6, 6>::Zero();
+    pair.block<3, 3>(0, 3) = block;
+    hessian.add<2>({i, j}, pair);
+  }
+}
+
+}  // namespace
+
+// A diagonal block as a one-vertex element, an off-diagonal block (i > j) as the (i, j) block of a
+// two-vertex element whose other blocks are zero. Every block of `values` is added, and every block
+// of `pattern_only` that `values` lacks is added as zero, in (column, row) order: the coarse-first
+// Hessian's two phases then give the assembly the same stencil sequence, so the coarse matrix's
+// pattern is analysed once, not at every switch. Both lists depend only on the meshes and the
+// prolongation's sparsity pattern, so the sequence repeats from one assembly to the next.
+void ProlongedTerm::add_blocks(const std::vector<GalerkinProduct::Block>& values,
+                               const std::vector<GalerkinProduct::Block>& pattern_only, HessianAssembly& hessian) const {
+  std::size_t a = 0, b = 0;
+  while (a < values.size() || b < pattern_only.size()) {
+    if (b == pattern_only.size() || (a < values.size() && !before(pattern_only[b], values[a]))) {
+      if (b < pattern_only.size() && !before(values[a], pattern_only[b])) ++b;  // the same block in both
+      add_block(values[a].i, values[a].j, values[a].block, hessian);
+      ++a;
     } else {
-      Eigen::Matrix<double, 6, 6> pair = Eigen::Matrix<double, 6, 6>::Zero();
-      pair.block<3, 3>(0, 3) = b.block;
-      hessian.add<2>({b.i, b.j}, pair);
+      add_block(pattern_only[b].i, pattern_only[b].j, Mat3::Zero(), hessian);
+      ++b;
     }
+  }
+}
+
+// The stand-in's Hessian on the level's mesh (each element projected as asked) as its lower 3x3
+// blocks in (column, row) order.
+void ProlongedTerm::compute_coarse_blocks(const Eigen::VectorXd& x, HessianProjection projection) const {
+  coarse_hessian_.begin(static_cast<int>(x.size()));
+  coarse_->add_hessian(x, projection, coarse_hessian_);
+  const HessianAssembly::SparseMatrix& H = coarse_hessian_.finish(nullptr);
+  coarse_blocks_.clear();
+  for (int j = 0; 3 * j < H.outerSize(); ++j) {
+    const std::size_t first = coarse_blocks_.size();
+    for (int c = 3 * j; c < 3 * j + 3; ++c)
+      for (HessianAssembly::SparseMatrix::InnerIterator it(H, c); it; ++it) {
+        const int i = static_cast<int>(it.row()) / 3;
+        auto found = std::find_if(coarse_blocks_.begin() + static_cast<std::ptrdiff_t>(first), coarse_blocks_.end(),
+                                  [i](const GalerkinProduct::Block& blk) { return blk.i == i; });
+        if (found == coarse_blocks_.end()) {
+          coarse_blocks_.push_back({i, j, Mat3::Zero()});
+          found = coarse_blocks_.end() - 1;
+        }
+        found->block(static_cast<int>(it.row()) % 3, c % 3) = it.value();
+      }
+    std::sort(coarse_blocks_.begin() + static_cast<std::ptrdiff_t>(first), coarse_blocks_.end(), before);
   }
 }
 
@@ -130,6 +189,7 @@ double ProlongedTerm::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& 
 
 void ProlongedTerm::begin_step(const StepStart& step) {
   blocks_stale_ = true;
+  assemblies_in_step_ = 0;
   StepStart fine = step;
   Eigen::VectorXd x_fine, v_fine;
   if (step.x) {

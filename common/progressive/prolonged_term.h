@@ -39,7 +39,13 @@
 //   Coarse    the Hessian of a stand-in term on the level's own mesh (the same material on level l's
 //             rest shape, PSQ eq. 10's preconditioner): cheaper per iteration, not the exact Hessian
 //             of value(); the coarse shell is much stiffer than the finest seen through P, and the
-//             same preview needed 176 iterations per step (most steps hit the cap).
+//             same preview needed 176 iterations per step (most steps hit the cap) in 2026-11 (frozen
+//             offsets); with the exact gradient it converges on most scenes (docs/progressive.md).
+//   CoarseFirst  the stand-in's Hessian for a step's first kCoarseFirstAssemblies Newton iterates, then
+//             Lagged for the rest of that step: cheap iterates where the stand-in is good enough, the
+//             Galerkin Hessian where it stalls (the pressurised ball, the cloth winding on a sphere).
+//             Both phases assemble the union of their block patterns (zeros where a phase has no
+//             block), so switching does not re-analyse the coarse matrix.
 //
 // Velocities prolong with the Jacobian at the start state (begin_step gives the fine term P(x), J v;
 // frozen: U x + A, U v): the velocity of the prolonged shape.
@@ -112,6 +118,8 @@ enum class ProlongedHessian {
   Lagged,    // J^T H_fine J at the first Newton iterate of each step and every kLaggedRefreshEvery-th
              // after it, reused in between
   Coarse,    // the stand-in term's Hessian on the level's own mesh
+  CoarseFirst,  // the stand-in's Hessian for a step's first kCoarseFirstAssemblies assemblies, then
+                // Lagged (refreshed at the switch) for the rest of the step
 };
 
 // Lagged: the Galerkin Hessian is recomputed at every this-many-th assembly within a step. Measured
@@ -120,16 +128,22 @@ enum class ProlongedHessian {
 // 64 s for plain Galerkin there, and 6 sits on the plateau for the flag and the large trampoline too.
 constexpr int kLaggedRefreshEvery = 6;
 
-// "galerkin", "lagged" or "coarse" (command-line and benchmark spelling); throws
+// CoarseFirst: assemblies per step that use the coarse stand-in before the step turns to the lagged
+// Galerkin Hessian. The decision depends only on the step's own iterates, so a step's solve is the
+// same whichever task or worker runs it. 8 against 4, 30-frame previews, one thread, 2026-12-03:
+// flag-large 10.8 / 15.1 s, spin-sphere 31.4 / 43.6 s, ball-drop 5.4 / 5.5 s (docs/progressive.md).
+constexpr int kCoarseFirstAssemblies = 8;
+
+// "galerkin", "lagged", "coarse" or "coarse-first" (command-line and benchmark spelling); throws
 // std::invalid_argument naming the accepted words for anything else.
 ProlongedHessian parse_prolonged_hessian(const std::string& name);
 
 class ProlongedTerm : public EnergyTerm {
  public:
   // fine: the finest-level term (global finest ids). state: the level's shared prolongation state.
-  // mode Coarse needs `coarse_stand_in` (the same energy on level l's mesh, level l ids); Galerkin
-  // ignores it. Throws std::invalid_argument for a missing term/state or a Coarse mode without a
-  // stand-in.
+  // modes Coarse and CoarseFirst need `coarse_stand_in` (the same energy on level l's mesh, level l
+  // ids); Galerkin and Lagged ignore it. Throws std::invalid_argument for a missing term/state or a
+  // Coarse or CoarseFirst mode without a stand-in.
   ProlongedTerm(std::unique_ptr<EnergyTerm> fine, std::shared_ptr<ProlongationState> state, ProlongedHessian mode,
                 std::unique_ptr<EnergyTerm> coarse_stand_in = nullptr);
 
@@ -150,6 +164,9 @@ class ProlongedTerm : public EnergyTerm {
   ProlongedHessian mode_;
   std::unique_ptr<EnergyTerm> coarse_;
   void compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection) const;
+  void compute_coarse_blocks(const Eigen::VectorXd& x, HessianProjection projection) const;
+  void add_blocks(const std::vector<GalerkinProduct::Block>& values,
+                  const std::vector<GalerkinProduct::Block>& pattern_only, HessianAssembly& hessian) const;
 
   mutable HessianAssembly fine_hessian_;  // reused so its sparsity pattern is analysed once
   mutable GalerkinProduct product_;  // holds J^T H_fine J's blocks between refreshes
@@ -158,6 +175,9 @@ class ProlongedTerm : public EnergyTerm {
   mutable bool blocks_stale_ = true;
   mutable int assemblies_since_refresh_ = 0;
   mutable HessianProjection blocks_projection_ = HessianProjection::None;
+  mutable int assemblies_in_step_ = 0;  // CoarseFirst: add_hessian calls since begin_step
+  mutable HessianAssembly coarse_hessian_;                 // CoarseFirst: the stand-in's, reused
+  mutable std::vector<GalerkinProduct::Block> coarse_blocks_;  // its lower blocks, (column, row) order
 };
 
 }  // namespace pd

@@ -140,7 +140,7 @@ struct AssignTask {
   int start = 0;
   int frames = 0;  // the job's frame count N (overrides the scene's)
   int levels = 0;  // the job's hierarchy level count (overrides the scene's hierarchy.levels)
-  std::string hessian;  // prolonged Hessian name ("lagged", "galerkin", "coarse")
+  std::string hessian;  // prolonged Hessian name ("lagged", "galerkin", "coarse", "coarse-first")
   SceneSource scene;
   std::string hierarchy_hash;  // kind == level: the hierarchy the task runs on
   // kind == level: the hierarchy file's bytes when the scheduler has not sent this hash to this

@@ -238,10 +238,57 @@ TEST(ProlongedTerm, LaggedHessianIsGalerkinAtRefreshesAndReusedBetweenThem) {
   EXPECT_TRUE(test::term_gradient(lagged, x2) == test::term_gradient(galerkin, x2));
 }
 
+// Coarse-first: the stand-in's Hessian for a step's first kCoarseFirstAssemblies assemblies, then the
+// lagged Galerkin one (computed at the switch, reused after it); a new step starts coarse again. Both
+// phases give the assembly one stencil sequence once each has run, so its pattern stays put.
+TEST(ProlongedTerm, CoarseFirstHessianIsTheStandInsAtAStepsStartThenTheLaggedGalerkinOnOnePattern) {
+  Sheet s;
+  auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
+  const Eigen::VectorXd x1 = s.deformed();
+  const Eigen::VectorXd x2 = 1.01 * x1 + Eigen::VectorXd::Constant(x1.size(), 0.002);
+  const HessianProjection clamp = HessianProjection::Clamp;
+  const ProlongedTerm galerkin(s.membrane(s.fine()), state, ProlongedHessian::Galerkin);
+  const auto stand_in = s.membrane(s.coarse());
+  ProlongedTerm first(s.membrane(s.fine()), state, ProlongedHessian::CoarseFirst, s.membrane(s.coarse()));
+  const Eigen::MatrixXd coarse_x1 = test::term_hessian(*stand_in, x1, clamp);
+  const Eigen::MatrixXd galerkin_x2 = test::term_hessian(galerkin, x2, clamp);
+  ASSERT_GT((coarse_x1 - test::term_hessian(galerkin, x1, clamp)).norm(), 1e-3 * coarse_x1.norm());
+
+  const Eigen::VectorXd v = Eigen::VectorXd::Zero(x1.size());
+  HessianAssembly assembly;  // kept across assemblies, as Newton keeps it
+  std::vector<bool> pattern_changed;
+  const auto assemble = [&](const Eigen::VectorXd& x) {
+    assembly.begin(static_cast<int>(x.size()));
+    first.add_hessian(x, clamp, assembly);
+    bool changed = false;
+    const Eigen::MatrixXd H = test::symmetric_from_lower(assembly.finish(&changed));
+    pattern_changed.push_back(changed);
+    return H;
+  };
+  static_assert(kCoarseFirstAssemblies >= 1, "coarse-first without a coarse assembly is the lagged Hessian");
+  int checked = 0;
+  for (int step = 0; step < 2; ++step) {
+    first.begin_step({0.01, 0.01, &x1, &v});
+    for (int k = 0; k < kCoarseFirstAssemblies; ++k) checked += assemble(x1) == coarse_x1;
+    checked += assemble(x2) == galerkin_x2;  // the switch: Galerkin at x2
+    checked += assemble(x1) == galerkin_x2;  // then reused
+  }
+  EXPECT_EQ(checked, 2 * (kCoarseFirstAssemblies + 2));
+  // The first step's coarse phase had no Galerkin blocks yet, its switch added them; from then on the
+  // union of both block lists is assembled in both phases.
+  const std::size_t settled = static_cast<std::size_t>(kCoarseFirstAssemblies) + 1;
+  ASSERT_EQ(pattern_changed.size(), 2 * settled + 2);
+  EXPECT_TRUE(pattern_changed[0]);
+  EXPECT_TRUE(pattern_changed[settled - 1]);
+  for (std::size_t i = settled; i < pattern_changed.size(); ++i) EXPECT_FALSE(pattern_changed[i]) << "assembly " << i;
+  EXPECT_THROW(ProlongedTerm(s.membrane(s.fine()), state, ProlongedHessian::CoarseFirst), std::invalid_argument);
+}
+
 TEST(ProlongedTerm, HessianNamesParseAndUnknownOnesAreRefused) {
   EXPECT_EQ(parse_prolonged_hessian("galerkin"), ProlongedHessian::Galerkin);
   EXPECT_EQ(parse_prolonged_hessian("lagged"), ProlongedHessian::Lagged);
   EXPECT_EQ(parse_prolonged_hessian("coarse"), ProlongedHessian::Coarse);
+  EXPECT_EQ(parse_prolonged_hessian("coarse-first"), ProlongedHessian::CoarseFirst);
   EXPECT_THROW(parse_prolonged_hessian("Galerkin"), std::invalid_argument);
 }
 
