@@ -10,14 +10,13 @@ over all frames (m). Pause other processes for the seconds to mean anything.
 Usage: bench/friction_stopping.py BUILD_DIR OUT_DIR [--frames N] [SCENE.json ...]
 (default scenes: every scene of scenes/ and scenes/stress/ with friction)
 """
-import argparse
 import json
 import os
-import subprocess
 import sys
 
-import h5py
 import numpy as np
+
+import scene_variants
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RULES = ("contacts", "uniform")
@@ -42,49 +41,18 @@ def friction_scenes():
 
 
 def run(pd, scene_path, rule, frames, out_dir):
-    scene = json.load(open(scene_path))
-    scene.setdefault("solver", {})["friction_stopping"] = rule
-    stem = os.path.splitext(os.path.basename(scene_path))[0]
-    # The variant lives beside the original so that relative mesh paths still resolve.
-    variant = os.path.join(os.path.dirname(scene_path), f".{stem}-{rule}.json")
-    out = os.path.join(out_dir, f"{stem}-{rule}.h5")
-    with open(variant, "w") as f:
-        json.dump(scene, f)
-    try:
-        cmd = [pd, "simulate", variant, "--mode", "direct", "--out", out, "--force", "--quiet",
-               "--allow-unconverged"]
-        if frames:
-            cmd += ["--frames", str(frames)]
-        subprocess.run(cmd, check=True)
-    finally:
-        os.remove(variant)
-    with h5py.File(out, "r") as h:
-        last = max(int(k) for k in h["levels"].keys())
-        level = h["levels"][str(last)]
-        stats = level["stats"]
-        return {
-            "positions": level["positions"][...],
-            "iterations": stats["newton_iterations"][1:],
-            "seconds": stats["solve_seconds"][1:],
-            "unconverged": int(np.sum(stats["newton_converged"][1:] == 0)),
-            "vertices": level["positions"].shape[1],
-        }
+    args = ["--mode", "direct"] + (["--frames", str(frames)] if frames else [])
+    levels = scene_variants.run(pd, scene_path, {"friction_stopping": rule}, rule, out_dir, args)
+    return levels[max(levels)]
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("build")
-    ap.add_argument("out")
-    ap.add_argument("--frames", type=int, default=0)
-    ap.add_argument("scenes", nargs="*")
-    a = ap.parse_args()
-    os.makedirs(a.out, exist_ok=True)
-    pd = os.path.join(a.build, "client", "pd")
+    pd, out, frames, scenes = scene_variants.parse_command_line()
     print("| scene | vertices | frames | its/step contacts | its/step uniform | ratio | s/step contacts "
           "| s/step uniform | ratio | unconverged (c/u) | max distance (m) |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    for path in a.scenes or friction_scenes():
-        r = {rule: run(pd, path, rule, a.frames, a.out) for rule in RULES}
+    for path in scenes or friction_scenes():
+        r = {rule: run(pd, path, rule, frames, out) for rule in RULES}
         c, u = r["contacts"], r["uniform"]
         dist = float(np.max(np.linalg.norm(c["positions"] - u["positions"], axis=2)))
         ic, iu = float(np.mean(c["iterations"])), float(np.mean(u["iterations"]))

@@ -6,6 +6,7 @@ bool parse_hessian_projection(const std::string& text, HessianProjection& out) {
   if (text == "none") { out = HessianProjection::None; return true; }
   if (text == "clamp") { out = HessianProjection::Clamp; return true; }
   if (text == "abs") { out = HessianProjection::Abs; return true; }
+  if (text == "exact_first") { out = HessianProjection::ExactFirst; return true; }
   return false;
 }
 
@@ -14,6 +15,7 @@ const char* to_string(HessianProjection p) {
     case HessianProjection::None: return "none";
     case HessianProjection::Clamp: return "clamp";
     case HessianProjection::Abs: return "abs";
+    case HessianProjection::ExactFirst: return "exact_first";
   }
   return "?";
 }

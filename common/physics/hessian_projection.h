@@ -16,9 +16,13 @@ enum class HessianProjection {
   None,   // exact Hessian (tests, diagnostics)
   Clamp,  // eigenvalues below zero set to zero (the IPC default)
   Abs,    // eigenvalues replaced by their absolute values
+  // A Newton policy, not an element projection: each step starts with the exact Hessian and
+  // switches to Clamp for its remaining iterations once CHOLMOD finds the assembled system
+  // indefinite (solver/newton.h). Element code that cannot retry treats it as Clamp.
+  ExactFirst,
 };
 
-// Parses "none" | "clamp" | "abs"; returns false for anything else.
+// Parses "none" | "clamp" | "abs" | "exact_first"; returns false for anything else.
 bool parse_hessian_projection(const std::string& text, HessianProjection& out);
 const char* to_string(HessianProjection p);
 
@@ -31,6 +35,7 @@ const char* to_string(HessianProjection p);
 template <int N>
 Eigen::Matrix<double, N, N> project_hessian(const Eigen::Matrix<double, N, N>& H, HessianProjection p) {
   if (p == HessianProjection::None) return H;
+  const bool clamp = p == HessianProjection::Clamp || p == HessianProjection::ExactFirst;
   const double eps = 1e-12 * H.diagonal().cwiseAbs().maxCoeff();
   Eigen::Matrix<double, N, N> shifted = H;
   shifted.diagonal().array() += eps;
@@ -40,7 +45,7 @@ Eigen::Matrix<double, N, N> project_hessian(const Eigen::Matrix<double, N, N>& H
   bool changed = false;
   for (int i = 0; i < N; ++i) {
     if (lambda[i] < 0.0) {
-      lambda[i] = (p == HessianProjection::Clamp) ? 0.0 : -lambda[i];
+      lambda[i] = clamp ? 0.0 : -lambda[i];
       changed = true;
     }
   }

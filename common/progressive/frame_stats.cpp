@@ -7,6 +7,7 @@ FrameStats frame_stats(const FrameRecord& r) {
   const NewtonReport& n = r.newton;
   s.scalars = {{"newton_iterations", double(n.iterations)},
                {"line_search_cuts", double(n.line_search_cuts)},
+               {"projection_fallbacks", double(n.projection_fallbacks)},
                {"newton_converged", r.frame == 0 ? 1.0 : double(n.converged)},
                {"solve_seconds", r.seconds},
                {"assemble_seconds", n.assemble_seconds},

@@ -525,7 +525,7 @@ SolverSettings read_solver(const JsonNode& node) {
   if (auto v = node.optional("tolerance")) s.tolerance = v->in_range(limits::kTolerance);
   if (auto v = node.optional("max_newton_iterations")) s.max_newton_iterations = as_int(v->integer(1, 1000000));
   if (auto v = node.optional("hessian_projection")) {
-    parse_hessian_projection(v->choice({"none", "clamp", "abs"}, "Hessian projection"), s.projection);
+    parse_hessian_projection(v->choice({"none", "clamp", "abs", "exact_first"}, "Hessian projection"), s.projection);
   }
   if (auto v = node.optional("friction_stopping")) {
     const std::string rule = v->choice({"contacts", "uniform"}, "friction stopping rule");

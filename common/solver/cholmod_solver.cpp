@@ -32,7 +32,7 @@ CholmodSolver::CholmodSolver() : impl_(std::make_unique<Impl>()) {
 }
 CholmodSolver::~CholmodSolver() = default;
 
-bool CholmodSolver::factorize(const SparseMatrix& lower, bool pattern_changed) {
+bool CholmodSolver::factorize(const SparseMatrix& lower, bool pattern_changed, bool shift_if_indefinite) {
   analyse_seconds_ = factorize_seconds_ = 0.0;
   if (pattern_changed || !impl_->analysed) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -45,7 +45,7 @@ bool CholmodSolver::factorize(const SparseMatrix& lower, bool pattern_changed) {
   impl_->llt.setShift(0.0);
   impl_->llt.factorize(lower);
   last_shift_ = 0.0;
-  if (impl_->llt.info() != Eigen::Success) {
+  if (impl_->llt.info() != Eigen::Success && shift_if_indefinite) {
     // Only reached with an indefinite Hessian (projection "none", or round-off in a nearly singular
     // system). A shift turns Newton into a damped step; it stays a descent direction.
     const double mean_diag = std::abs(lower.diagonal().mean());

@@ -21,8 +21,10 @@ class CholmodSolver {
   // Factorizes A (symmetric; only its lower triangle is read). Re-analyses when pattern_changed or
   // on the first call. If A is not numerically positive definite, retries with a growing multiple of
   // the identity added (starting at 1e-8 times the mean diagonal) and reports the shift used.
-  // Returns false only if even a large shift fails (non-finite entries).
-  bool factorize(const SparseMatrix& lower, bool pattern_changed);
+  // Returns false only if even a large shift fails (non-finite entries). With shift_if_indefinite
+  // false it returns false as soon as A is found not positive definite (the caller has a better
+  // fallback than damping, e.g. a projected Hessian).
+  bool factorize(const SparseMatrix& lower, bool pattern_changed, bool shift_if_indefinite = true);
 
   // Solves A x = b with the last successful factorization.
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;

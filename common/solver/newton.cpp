@@ -14,21 +14,39 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
                              const NewtonSettings& s, HessianAssembly& hessian, CholmodSolver& solver) {
   NewtonReport r;
   double energy = ip.value(x);
+  // ExactFirst: exact until the first indefinite system, clamped from then on.
+  bool exact = s.projection == HessianProjection::ExactFirst;
+  const auto element_projection = [&] {
+    if (s.projection != HessianProjection::ExactFirst) return s.projection;
+    return exact ? HessianProjection::None : HessianProjection::Clamp;
+  };
   for (r.iterations = 0; r.iterations < s.max_iterations;) {
     auto t0 = Clock::now();
     const Eigen::VectorXd g = ip.gradient(x);
-    ip.hessian(x, s.projection, hessian);
+    ip.hessian(x, element_projection(), hessian);
     bool pattern_changed = false;
-    const auto& H = hessian.finish(&pattern_changed);
+    const CholmodSolver::SparseMatrix* H = &hessian.finish(&pattern_changed);
     r.assemble_seconds += since(t0);
     r.gradient_norms.push_back(g.norm());
 
-    if (!solver.factorize(H, pattern_changed)) {
+    bool factorized = solver.factorize(*H, pattern_changed, /*shift_if_indefinite=*/!exact);
+    r.analyse_seconds += solver.analyse_seconds();
+    r.factorize_seconds += solver.factorize_seconds();
+    if (!factorized && exact) {
+      exact = false;
+      ++r.projection_fallbacks;
+      t0 = Clock::now();
+      ip.hessian(x, element_projection(), hessian);
+      H = &hessian.finish(&pattern_changed);
+      r.assemble_seconds += since(t0);
+      factorized = solver.factorize(*H, pattern_changed);
+      r.analyse_seconds += solver.analyse_seconds();
+      r.factorize_seconds += solver.factorize_seconds();
+    }
+    if (!factorized) {
       r.stop_reason = "factorization_failed";
       return r;
     }
-    r.analyse_seconds += solver.analyse_seconds();
-    r.factorize_seconds += solver.factorize_seconds();
     t0 = Clock::now();
     const Eigen::VectorXd p = -solver.solve(g);
     r.solve_seconds += since(t0);

@@ -50,7 +50,14 @@ TEST(HessianProjection, PositiveDefiniteMatrixIsReturnedBitForBit) {
   EXPECT_EQ((project_hessian<6>(H, HessianProjection::Abs) - H).norm(), 0.0);
 }
 
-TEST(HessianProjection, ParsesTheThreeNamesAndRejectsOthers) {
+TEST(HessianProjection, ExactFirstProjectsLikeClampWhereAnElementCannotRetry) {
+  Eigen::Matrix<double, 6, 1> l;
+  l << -3, -1, 0.5, 1, 2, 4;
+  const auto H = symmetric_with_eigenvalues(l, 5);
+  EXPECT_EQ((project_hessian<6>(H, HessianProjection::ExactFirst) - project_hessian<6>(H, HessianProjection::Clamp)).norm(), 0.0);
+}
+
+TEST(HessianProjection, ParsesTheFourNamesAndRejectsOthers) {
   HessianProjection p;
   ASSERT_TRUE(parse_hessian_projection("none", p));
   EXPECT_EQ(p, HessianProjection::None);
@@ -58,6 +65,9 @@ TEST(HessianProjection, ParsesTheThreeNamesAndRejectsOthers) {
   EXPECT_EQ(p, HessianProjection::Clamp);
   ASSERT_TRUE(parse_hessian_projection("abs", p));
   EXPECT_EQ(p, HessianProjection::Abs);
+  ASSERT_TRUE(parse_hessian_projection("exact_first", p));
+  EXPECT_EQ(p, HessianProjection::ExactFirst);
+  EXPECT_STREQ(to_string(HessianProjection::ExactFirst), "exact_first");
   EXPECT_FALSE(parse_hessian_projection("Clamp", p));
   EXPECT_STREQ(to_string(HessianProjection::Abs), "abs");
 }

@@ -177,6 +177,38 @@ TEST(LevelStepper, NewtonConvergesQuadraticallyOnAHangingSheetStep) {
   EXPECT_GE(checked, 1) << "no iteration in the quadratic regime; step measures: " << trace;
 }
 
+TEST(LevelStepper, ExactFirstSolvesASaggingSheetInNoMoreIterationsThanClampAndCountsFallbacks) {
+  // A sheet held at its two top corners sags into folds: compressed membrane triangles and bent
+  // hinges with indefinite element Hessians, the case exact_first is for (docs/performance.md,
+  // "Which Hessian projection"). Same equations, same tolerance: the frames agree to within the
+  // motion's sensitivity, and the exact Hessian must not cost iterations.
+  const auto run = [](HessianProjection projection, int* iterations, int* fallbacks) {
+    // Long steps (h = 0.05 s) so the inertia term's M / h^2 no longer keeps every assembled
+    // system positive definite.
+    Scene scene = make_scene(0.05, 20, Vec3(0, -9.81, 0));
+    scene.objects.push_back(make_object("sheet", make_rectangle(1.0, 1.0, 16, 16), test::cotton()));
+    PinGroup pins;
+    pins.vertices = {272, 288};  // the top corners of the 17 x 17 grid
+    scene.objects[0].pins.push_back(pins);
+    scene.solver.projection = projection;
+    SceneSystem sys = build_scene_system(scene);
+    *iterations = *fallbacks = 0;
+    return run_scene(scene, sys, nullptr, [&](const FrameRecord& r) {
+      *iterations += r.newton.iterations;
+      *fallbacks += r.newton.projection_fallbacks;
+    });
+  };
+  int clamp_its = 0, clamp_fallbacks = 0, exact_its = 0, exact_fallbacks = 0;
+  const Eigen::VectorXd clamp = run(HessianProjection::Clamp, &clamp_its, &clamp_fallbacks);
+  const Eigen::VectorXd exact = run(HessianProjection::ExactFirst, &exact_its, &exact_fallbacks);
+  std::printf("sagging sheet, 20 steps: clamp %d Newton iterations, exact_first %d (%d fallbacks)\n", clamp_its,
+              exact_its, exact_fallbacks);
+  EXPECT_EQ(clamp_fallbacks, 0) << "only exact_first falls back";
+  EXPECT_GT(exact_fallbacks, 0) << "the long steps must make an exact system indefinite, or the fallback is untested";
+  EXPECT_LE(exact_its, clamp_its);
+  EXPECT_LT((clamp - exact).lpNorm<Eigen::Infinity>(), 1e-3) << "m, same equations and tolerance";
+}
+
 TEST(LevelStepper, CurvedRestShapeStaysAtRestWithoutGravity) {
   // Rest dihedral angles come from the rest mesh, so a sphere has no bending force at rest.
   Scene scene = make_scene(0.01, 10, Vec3::Zero());

@@ -33,6 +33,25 @@ class QuarticTerm : public EnergyTerm {
   double k_;
 };
 
+// E(x) = sum_i (x_i^2 - 1)^2 / 4: a double well per dof, element Hessian 3 x_i^2 - 1 (negative for
+// |x_i| < 1/sqrt(3)). Beside a QuarticTerm its clamped Hessian is positive definite, its exact one
+// is positive definite only where 3 x_i^2 - 1 + k > 0.
+class DoubleWellTerm : public EnergyTerm {
+ public:
+  std::string name() const override { return "double_well"; }
+  double value(const Eigen::VectorXd& x) const override { return ((x.array().square() - 1).square() / 4).sum(); }
+  void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g) const override {
+    g += (x.array() * (x.array().square() - 1)).matrix();
+  }
+  void add_hessian(const Eigen::VectorXd& x, HessianProjection p, HessianAssembly& H) const override {
+    for (int v = 0; v < x.size() / 3; ++v) {
+      Mat3 h = Mat3::Zero();
+      for (int i = 0; i < 3; ++i) h(i, i) = 3 * x[3 * v + i] * x[3 * v + i] - 1;
+      H.add<1>({v}, project_hessian<3>(h, p));
+    }
+  }
+};
+
 NewtonSettings settings(double tol) {
   NewtonSettings s;
   s.h = 1.0;
@@ -141,6 +160,55 @@ TEST(Newton, TheTangentialTestKeepsIteratingUntilTheContactsStepIsBelowItsOwnTol
   // Checked only where the step test passed: fewer entries than iterations.
   EXPECT_LE(tight.tangential_measures.size(), static_cast<size_t>(tight.iterations));
   EXPECT_LT(std::abs(ip.gradient(x)[0]), 1e-8);
+}
+
+}  // namespace
+}  // namespace pd
+
+namespace pd {
+namespace {
+
+IncrementalPotential double_well_beside_quartic() {
+  IncrementalPotential ip;
+  ip.add_term(std::make_unique<DoubleWellTerm>());
+  // Quartic x^4/4 + 0.25 x^2: adds 3 x^2 + 0.5 to each diagonal entry, so the exact sum is
+  // indefinite where 6 x^2 - 0.5 < 0, |x| < 0.289.
+  ip.add_term(std::make_unique<QuarticTerm>(Eigen::VectorXd::Zero(6), 0.5));
+  return ip;
+}
+
+TEST(Newton, ExactFirstFallsBackToClampOnceTheExactHessianIsIndefinite) {
+  const IncrementalPotential ip = double_well_beside_quartic();
+  NewtonSettings s = settings(1e-7);  // above what the potential's round-off can resolve
+  s.projection = HessianProjection::ExactFirst;
+  Eigen::VectorXd x(6);
+  x << 0.05, 0.9, -0.1, 1.2, 0.2, -0.8;  // dofs 0, 2, 4 start in the indefinite region
+  HessianAssembly H;
+  CholmodSolver solver;
+  const NewtonReport r = newton_minimize(ip, x, s, H, solver);
+  ASSERT_TRUE(r.converged) << r.stop_reason;
+  EXPECT_EQ(r.projection_fallbacks, 1) << "one fallback, then clamped for the rest of the call";
+  EXPECT_EQ(solver.last_shift(), 0.0) << "the clamped Hessian needed no damping";
+  EXPECT_LT(ip.gradient(x).norm(), 1e-7);
+}
+
+TEST(Newton, ExactFirstOnAPositiveDefiniteSystemIsTheExactNewtonBitForBit) {
+  const IncrementalPotential ip = double_well_beside_quartic();
+  Eigen::VectorXd start(6);
+  start << 0.9, 1.1, -0.7, 1.2, 0.6, -0.8;  // every dof where the exact sum is positive definite
+  NewtonSettings exact_first = settings(1e-7), exact = settings(1e-7);
+  exact_first.projection = HessianProjection::ExactFirst;
+  exact.projection = HessianProjection::None;
+  Eigen::VectorXd a = start, b = start;
+  HessianAssembly H;
+  CholmodSolver solver;
+  const NewtonReport ra = newton_minimize(ip, a, exact_first, H, solver);
+  const NewtonReport rb = newton_minimize(ip, b, exact, H, solver);
+  ASSERT_TRUE(ra.converged && rb.converged);
+  EXPECT_EQ(ra.projection_fallbacks, 0);
+  EXPECT_EQ(ra.iterations, rb.iterations);
+  EXPECT_EQ(ra.step_measures, rb.step_measures);
+  EXPECT_TRUE(a == b);
 }
 
 }  // namespace
