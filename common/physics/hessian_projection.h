@@ -16,9 +16,9 @@ enum class HessianProjection {
   None,   // exact Hessian (tests, diagnostics)
   Clamp,  // eigenvalues below zero set to zero (the IPC default)
   Abs,    // eigenvalues replaced by their absolute values
-  // A Newton policy, not an element projection: each step starts with the exact Hessian and
-  // switches to Clamp for its remaining iterations once CHOLMOD finds the assembled system
-  // indefinite (solver/newton.h). Element code that cannot retry treats it as Clamp.
+  // A Newton policy, not an element projection: each iterate assembles the exact Hessian and
+  // reassembles it with Clamp only when CHOLMOD finds the assembled system indefinite
+  // (solver/newton.h). Element code that cannot retry treats it as Clamp.
   ExactFirst,
 };
 

@@ -14,13 +14,16 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
                              const NewtonSettings& s, HessianAssembly& hessian, CholmodSolver& solver) {
   NewtonReport r;
   double energy = ip.value(x);
-  // ExactFirst: exact until the first indefinite system, clamped from then on.
-  bool exact = s.projection == HessianProjection::ExactFirst;
+  // ExactFirst: every iterate tries the exact Hessian first (keeping the clamp for the rest of the
+  // step after one failure measured 1.3x more finest-level iterations on drape-gear).
+  const bool exact_first = s.projection == HessianProjection::ExactFirst;
+  bool exact = false;  // this iterate's Hessian is the exact one (ExactFirst, before any fallback)
   const auto element_projection = [&] {
-    if (s.projection != HessianProjection::ExactFirst) return s.projection;
+    if (!exact_first) return s.projection;
     return exact ? HessianProjection::None : HessianProjection::Clamp;
   };
   for (r.iterations = 0; r.iterations < s.max_iterations;) {
+    exact = exact_first;
     auto t0 = Clock::now();
     const Eigen::VectorXd g = ip.gradient(x);
     ip.hessian(x, element_projection(), hessian);

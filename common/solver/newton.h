@@ -25,8 +25,8 @@ struct NewtonSettings {
   double tangential_tolerance = 0.0;
   int max_iterations = 200;
   int max_line_search_cuts = 40;   // halvings before the line search gives up (no descent)
-  // Element Hessian projection. ExactFirst: the exact Hessian while CHOLMOD can factorize it, then
-  // Clamp for the rest of the call from the first iterate whose assembled Hessian is indefinite.
+  // Element Hessian projection. ExactFirst: at every iterate the exact Hessian, reassembled with
+  // Clamp only when CHOLMOD finds the assembled system indefinite.
   // Clamping every indefinite element overestimates the curvature along buckling directions of a
   // compressed sheet, which the inertia term alone usually keeps positive; Newton then creeps
   // along them at a linear rate (docs/performance.md, "Which Hessian projection").
@@ -41,8 +41,6 @@ struct NewtonReport {
   int iterations = 0;              // Newton systems solved
   int line_search_cuts = 0;        // halvings over all iterations
   // ExactFirst only: iterations whose exact Hessian was indefinite and was reassembled clamped
-  // (once the first happens, the later iterations of the call assemble clamped from the start and
-  // are not counted)
   int projection_fallbacks = 0;
   bool converged = false;
   // "converged" | "max_iterations" | "no_descent" | "factorization_failed", or "pins_blocked" (set

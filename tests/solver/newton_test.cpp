@@ -177,7 +177,7 @@ IncrementalPotential double_well_beside_quartic() {
   return ip;
 }
 
-TEST(Newton, ExactFirstFallsBackToClampOnceTheExactHessianIsIndefinite) {
+TEST(Newton, ExactFirstFallsBackToClampOnlyWhileTheExactHessianIsIndefinite) {
   const IncrementalPotential ip = double_well_beside_quartic();
   NewtonSettings s = settings(1e-7);  // above what the potential's round-off can resolve
   s.projection = HessianProjection::ExactFirst;
@@ -187,7 +187,10 @@ TEST(Newton, ExactFirstFallsBackToClampOnceTheExactHessianIsIndefinite) {
   CholmodSolver solver;
   const NewtonReport r = newton_minimize(ip, x, s, H, solver);
   ASSERT_TRUE(r.converged) << r.stop_reason;
-  EXPECT_EQ(r.projection_fallbacks, 1) << "one fallback, then clamped for the rest of the call";
+  // The first iterate is indefinite; near the minimiser (|x_i| near 1) the exact sum is positive
+  // definite again, so not every iteration falls back.
+  EXPECT_GE(r.projection_fallbacks, 1);
+  EXPECT_LT(r.projection_fallbacks, r.iterations) << "the exact Hessian must come back once it is positive definite";
   EXPECT_EQ(solver.last_shift(), 0.0) << "the clamped Hessian needed no damping";
   EXPECT_LT(ip.gradient(x).norm(), 1e-7);
 }
