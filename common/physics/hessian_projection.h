@@ -16,9 +16,10 @@ enum class HessianProjection {
   None,   // exact Hessian (tests, diagnostics)
   Clamp,  // eigenvalues below zero set to zero (the IPC default)
   Abs,    // eigenvalues replaced by their absolute values
-  // A Newton policy, not an element projection: each iterate assembles the exact Hessian and
-  // reassembles it with Clamp only when CHOLMOD finds the assembled system indefinite
-  // (solver/newton.h). Element code that cannot retry treats it as Clamp.
+  // The scene default. A Newton policy, not an element projection: an iterate assembles the exact
+  // Hessian and reassembles it with Clamp only when CHOLMOD finds the assembled system indefinite,
+  // or assembles it with Clamp at once after a capped step (solver/newton.h). Element code that
+  // cannot retry treats it as Clamp.
   ExactFirst,
 };
 

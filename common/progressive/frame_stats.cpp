@@ -7,6 +7,7 @@ FrameStats frame_stats(const FrameRecord& r) {
   const NewtonReport& n = r.newton;
   s.scalars = {{"newton_iterations", double(n.iterations)},
                {"line_search_cuts", double(n.line_search_cuts)},
+               {"exact_hessians", double(n.exact_hessians)},
                {"projection_fallbacks", double(n.projection_fallbacks)},
                {"newton_converged", r.frame == 0 ? 1.0 : double(n.converged)},
                {"solve_seconds", r.seconds},

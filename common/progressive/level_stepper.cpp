@@ -24,6 +24,7 @@ constexpr double kFrictionToleranceFraction = 0.1;
 void accumulate(NewtonReport& total, const NewtonReport& part) {
   total.iterations += part.iterations;
   total.line_search_cuts += part.line_search_cuts;
+  total.exact_hessians += part.exact_hessians;
   total.projection_fallbacks += part.projection_fallbacks;
   total.assemble_seconds += part.assemble_seconds;
   total.analyse_seconds += part.analyse_seconds;

@@ -144,7 +144,7 @@ struct SolverSettings {
   double tolerance = 1e-3;
   FrictionStopping friction_stopping = FrictionStopping::Contacts;
   int max_newton_iterations = 200;
-  HessianProjection projection = HessianProjection::Clamp;
+  HessianProjection projection = HessianProjection::ExactFirst;  // docs/performance.md, "Which Hessian projection"
 };
 
 // The scene-wide level hierarchy (docs/scene-format.md, "hierarchy").

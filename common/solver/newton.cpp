@@ -27,10 +27,16 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     r.factorize_seconds += solver.factorize_seconds();
     return ok;
   };
-  // ExactFirst: every iterate tries the exact Hessian first, unshifted, and is reassembled clamped
-  // only if that fails (keeping the clamp for the rest of the step after one failure measured 1.3x
-  // more finest-level iterations on drape-gear).
+  // ExactFirst: an iterate tries the exact Hessian first, unshifted, and is reassembled clamped only
+  // if that fails (keeping the clamp for the rest of the step after one failure measured 1.3x more
+  // finest-level iterations on drape-gear). After a capped step (max_step < 1: CCD, the strain
+  // limit or the ground kept the step short of the full Newton step) the next iterate is clamped
+  // without trying: far from the minimiser the exact Hessian, even when positive definite, can
+  // point into contact, and Newton then crawls at capped steps (self-fold: one step ran out of its
+  // 200 iterations). Steps shortened by the line search alone do not count: the flag has many, and
+  // clamping after them cost 1.75x the time (docs/performance.md, "Which Hessian projection").
   const bool exact_first = s.projection == HessianProjection::ExactFirst;
+  bool try_exact = exact_first;
   for (r.iterations = 0; r.iterations < s.max_iterations;) {
     auto t0 = Clock::now();
     const Eigen::VectorXd g = ip.gradient(x);
@@ -40,12 +46,12 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     bool factorized;
     if (!exact_first) {
       factorized = assemble_and_factorize(s.projection, true);
+    } else if (try_exact && assemble_and_factorize(HessianProjection::None, false)) {
+      factorized = true;
+      ++r.exact_hessians;
     } else {
-      factorized = assemble_and_factorize(HessianProjection::None, false);
-      if (!factorized) {
-        ++r.projection_fallbacks;
-        factorized = assemble_and_factorize(HessianProjection::Clamp, true);
-      }
+      if (try_exact) ++r.projection_fallbacks;
+      factorized = assemble_and_factorize(HessianProjection::Clamp, true);
     }
     if (!factorized) {
       r.stop_reason = "factorization_failed";
@@ -77,6 +83,7 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     // resolve; with strict decrease that case ends as "no_descent".
     t0 = Clock::now();
     double alpha = ip.max_step(x, p);
+    try_exact = exact_first && alpha == 1.0;
     Eigen::VectorXd trial = x + alpha * p;
     double trial_energy = ip.value(trial);
     int cuts = 0;

@@ -26,7 +26,8 @@ struct NewtonSettings {
   int max_iterations = 200;
   int max_line_search_cuts = 40;   // halvings before the line search gives up (no descent)
   // Element Hessian projection. ExactFirst: at every iterate the exact Hessian, reassembled with
-  // Clamp only when CHOLMOD finds the assembled system indefinite.
+  // Clamp only when CHOLMOD finds the assembled system indefinite; an iterate after a capped step
+  // (max_step < 1) is clamped without trying.
   // Clamping every indefinite element overestimates the curvature along buckling directions of a
   // compressed sheet, which the inertia term alone usually keeps positive; Newton then creeps
   // along them at a linear rate (docs/performance.md, "Which Hessian projection").
@@ -40,7 +41,9 @@ struct NewtonSettings {
 struct NewtonReport {
   int iterations = 0;              // Newton systems solved
   int line_search_cuts = 0;        // halvings over all iterations
-  // ExactFirst only: iterations whose exact Hessian was indefinite and was reassembled clamped
+  // ExactFirst only: iterations solved with the exact Hessian, and iterations whose exact Hessian
+  // was indefinite and was reassembled clamped (the rest followed a capped step and were clamped)
+  int exact_hessians = 0;
   int projection_fallbacks = 0;
   bool converged = false;
   // "converged" | "max_iterations" | "no_descent" | "factorization_failed", or "pins_blocked" (set

@@ -132,7 +132,7 @@ TEST(SceneFile, OmittedOptionalKeysGetTheirDocumentedDefaults) {
   EXPECT_DOUBLE_EQ(scene.solver.tolerance, 1e-3);
   EXPECT_EQ(scene.solver.max_newton_iterations, 200);
   EXPECT_EQ(scene.solver.friction_stopping, FrictionStopping::Contacts);
-  EXPECT_EQ(scene.solver.projection, HessianProjection::Clamp);
+  EXPECT_EQ(scene.solver.projection, HessianProjection::ExactFirst);
   const SceneObject& o = scene.objects.at(0);
   EXPECT_EQ(o.name, "object_0");
   EXPECT_EQ(o.rest.V, make_rectangle(1.0, 1.0, 4, 4).V);  // identity transform

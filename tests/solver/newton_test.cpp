@@ -52,6 +52,20 @@ class DoubleWellTerm : public EnergyTerm {
   }
 };
 
+// No energy; caps every step at `alpha` of the Newton step, as CCD does near contact.
+class StepCapTerm : public EnergyTerm {
+ public:
+  explicit StepCapTerm(double alpha) : alpha_(alpha) {}
+  std::string name() const override { return "step_cap"; }
+  double value(const Eigen::VectorXd& /*x*/) const override { return 0.0; }
+  void add_gradient(const Eigen::VectorXd& /*x*/, Eigen::VectorXd& /*g*/) const override {}
+  void add_hessian(const Eigen::VectorXd& /*x*/, HessianProjection /*p*/, HessianAssembly& /*H*/) const override {}
+  double max_step(const Eigen::VectorXd& /*x*/, const Eigen::VectorXd& /*dx*/) const override { return alpha_; }
+
+ private:
+  double alpha_;
+};
+
 NewtonSettings settings(double tol) {
   NewtonSettings s;
   s.h = 1.0;
@@ -190,7 +204,8 @@ TEST(Newton, ExactFirstFallsBackToClampOnlyWhileTheExactHessianIsIndefinite) {
   // The first iterate is indefinite; near the minimiser (|x_i| near 1) the exact sum is positive
   // definite again, so not every iteration falls back.
   EXPECT_GE(r.projection_fallbacks, 1);
-  EXPECT_LT(r.projection_fallbacks, r.iterations) << "the exact Hessian must come back once it is positive definite";
+  EXPECT_GE(r.exact_hessians, 1) << "the exact Hessian must come back once it is positive definite";
+  EXPECT_LE(r.exact_hessians + r.projection_fallbacks, r.iterations);
   EXPECT_EQ(solver.last_shift(), 0.0) << "the clamped Hessian needed no damping";
   EXPECT_LT(ip.gradient(x).norm(), 1e-7);
 }
@@ -209,9 +224,34 @@ TEST(Newton, ExactFirstOnAPositiveDefiniteSystemIsTheExactNewtonBitForBit) {
   const NewtonReport rb = newton_minimize(ip, b, exact, H, solver);
   ASSERT_TRUE(ra.converged && rb.converged);
   EXPECT_EQ(ra.projection_fallbacks, 0);
+  EXPECT_EQ(ra.exact_hessians, ra.iterations);
+  EXPECT_EQ(rb.exact_hessians, 0) << "counted under exact_first only";
   EXPECT_EQ(ra.iterations, rb.iterations);
   EXPECT_EQ(ra.step_measures, rb.step_measures);
   EXPECT_TRUE(a == b);
+}
+
+// After a capped step (max_step < 1, as CCD near contact) the next iterate is clamped without
+// trying the exact Hessian: with every step capped at half, only the first iterate (no step before
+// it) tries the exact Hessian, and on an indefinite start that one try is the only fallback.
+TEST(Newton, ExactFirstClampsEveryIterateThatFollowsACappedStep) {
+  for (const bool indefinite_start : {false, true}) {
+    IncrementalPotential ip = double_well_beside_quartic();
+    ip.add_term(std::make_unique<StepCapTerm>(0.5));
+    Eigen::VectorXd x(6);
+    if (indefinite_start) x << 0.05, 0.9, -0.1, 1.2, 0.2, -0.8;
+    else x << 0.9, 1.1, -0.7, 1.2, 0.6, -0.8;
+    NewtonSettings s = settings(1e-6);
+    s.projection = HessianProjection::ExactFirst;
+    HessianAssembly H;
+    CholmodSolver solver;
+    const NewtonReport r = newton_minimize(ip, x, s, H, solver);
+    SCOPED_TRACE(indefinite_start ? "indefinite start" : "positive-definite start");
+    ASSERT_TRUE(r.converged) << r.stop_reason;
+    ASSERT_GE(r.iterations, 5) << "halved steps converge linearly: several iterates to check";
+    EXPECT_EQ(r.exact_hessians, indefinite_start ? 0 : 1);
+    EXPECT_EQ(r.projection_fallbacks, indefinite_start ? 1 : 0);
+  }
 }
 
 }  // namespace
