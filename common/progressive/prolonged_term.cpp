@@ -98,17 +98,17 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
   }
   if (mode_ == ProlongedHessian::CoarseFirst && assemblies_in_step_++ < kCoarseFirstAssemblies) {
     compute_coarse_blocks(x, projection);
-    add_blocks(coarse_blocks_, product_.blocks(), hessian);
+    add_blocks(coarse_blocks_, lagged_[last_lagged_].product.blocks(), hessian);
     return;
   }
-  if (mode_ == ProlongedHessian::Galerkin || blocks_stale_ || projection != blocks_projection_ ||
-      ++assemblies_since_refresh_ >= kLaggedRefreshEvery) {
-    compute_galerkin_blocks(x, projection);
-    blocks_stale_ = false;
-    blocks_projection_ = projection;
-    assemblies_since_refresh_ = 0;
+  LaggedBlocks& set = lagged_.at(static_cast<std::size_t>(projection));
+  const int now = lagged_assemblies_++;
+  if (mode_ == ProlongedHessian::Galerkin || set.computed_at < 0 || now - set.computed_at >= kLaggedRefreshEvery) {
+    compute_galerkin_blocks(x, projection, set.product);
+    set.computed_at = now;
+    last_lagged_ = static_cast<std::size_t>(projection);
   }
-  add_blocks(product_.blocks(), coarse_blocks_, hessian);
+  add_blocks(set.product.blocks(), coarse_blocks_, hessian);
 }
 
 namespace {
@@ -177,10 +177,11 @@ void ProlongedTerm::compute_coarse_blocks(const Eigen::VectorXd& x, HessianProje
 
 // The fine Hessian (each element block projected as asked) carried through the prolongation's
 // Jacobian (U when frozen): its lower block triangle, from galerkin_product.h.
-void ProlongedTerm::compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection) const {
+void ProlongedTerm::compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection,
+                                            GalerkinProduct& product) const {
   fine_hessian_.begin(3 * state_->num_fine());
   fine_->add_hessian(state_->fine_positions(x), projection, fine_hessian_);
-  product_.compute(fine_hessian_.finish(nullptr), state_->jacobian(x));
+  product.compute(fine_hessian_.finish(nullptr), state_->jacobian(x));
 }
 
 double ProlongedTerm::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const {
@@ -188,7 +189,8 @@ double ProlongedTerm::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& 
 }
 
 void ProlongedTerm::begin_step(const StepStart& step) {
-  blocks_stale_ = true;
+  for (LaggedBlocks& set : lagged_) set.computed_at = -1;
+  lagged_assemblies_ = 0;
   assemblies_in_step_ = 0;
   StepStart fine = step;
   Eigen::VectorXd x_fine, v_fine;

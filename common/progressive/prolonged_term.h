@@ -52,6 +52,8 @@
 //
 // Conventions: stacked vectors, x[3i + k] = coordinate k of vertex i (m); fine vertex ids are the
 // finest level's global ids, coarse ids level l's.
+#include <array>
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <vector>
@@ -163,18 +165,25 @@ class ProlongedTerm : public EnergyTerm {
   std::shared_ptr<ProlongationState> state_;
   ProlongedHessian mode_;
   std::unique_ptr<EnergyTerm> coarse_;
-  void compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection) const;
+  void compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection,
+                               GalerkinProduct& product) const;
   void compute_coarse_blocks(const Eigen::VectorXd& x, HessianProjection projection) const;
   void add_blocks(const std::vector<GalerkinProduct::Block>& values,
                   const std::vector<GalerkinProduct::Block>& pattern_only, HessianAssembly& hessian) const;
 
   mutable HessianAssembly fine_hessian_;  // reused so its sparsity pattern is analysed once
-  mutable GalerkinProduct product_;  // holds J^T H_fine J's blocks between refreshes
-  // Lagged bookkeeping: begin_step marks the blocks stale; they were computed with blocks_projection_,
-  // assemblies_since_refresh_ assemblies ago.
-  mutable bool blocks_stale_ = true;
-  mutable int assemblies_since_refresh_ = 0;
-  mutable HessianProjection blocks_projection_ = HessianProjection::None;
+  // Lagged bookkeeping, one set of J^T H_fine J's blocks per element projection: exact_first
+  // alternates exact and clamped assemblies within a step, and one shared set, rebuilt at every
+  // switch, made spin-sphere's preview 2.2x slower than clamp's. A set is reused while it was
+  // computed in this step fewer than kLaggedRefreshEvery lagged assemblies (of any projection) ago,
+  // so no block is older than it was with one set. begin_step restarts the count.
+  struct LaggedBlocks {
+    GalerkinProduct product;
+    int computed_at = -1;  // lagged_assemblies_ when computed in this step, -1: not in this step
+  };
+  mutable std::array<LaggedBlocks, 4> lagged_;  // indexed by HessianProjection
+  mutable int lagged_assemblies_ = 0;           // lagged add_hessian calls since begin_step
+  mutable std::size_t last_lagged_ = 0;         // the set computed last (CoarseFirst's block pattern)
   mutable int assemblies_in_step_ = 0;  // CoarseFirst: add_hessian calls since begin_step
   mutable HessianAssembly coarse_hessian_;                 // CoarseFirst: the stand-in's, reused
   mutable std::vector<GalerkinProduct::Block> coarse_blocks_;  // its lower blocks, (column, row) order

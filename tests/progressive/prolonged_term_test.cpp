@@ -208,7 +208,10 @@ TEST(ProlongedTerm, CoarseHessianIsTheStandInsWhileValueAndGradientStayProlonged
 }
 
 // The lagged Galerkin Hessian: exact at a step's first assembly, then reused (whatever x is) until
-// the kLaggedRefreshEvery-th assembly, a new step or a different projection recomputes it.
+// the kLaggedRefreshEvery-th assembly or a new step recomputes it. Each element projection keeps its
+// own (exact_first alternates exact and clamped assemblies): a projection's first assembly in a
+// step computes its blocks, and switching back reuses the other's while they are younger than
+// kLaggedRefreshEvery assemblies of either projection.
 TEST(ProlongedTerm, LaggedHessianIsGalerkinAtRefreshesAndReusedBetweenThem) {
   Sheet s;
   auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
@@ -232,7 +235,11 @@ TEST(ProlongedTerm, LaggedHessianIsGalerkinAtRefreshesAndReusedBetweenThem) {
   const Eigen::VectorXd v = Eigen::VectorXd::Zero(x1.size());
   lagged.begin_step({0.01, 0.01, &x1, &v});
   EXPECT_TRUE(test::term_hessian(lagged, x1, none) == at_x1);  // a new step recomputes
-  EXPECT_TRUE(test::term_hessian(lagged, x2, clamp) == test::term_hessian(galerkin, x2, clamp));  // so does a new projection
+  const Eigen::MatrixXd clamped_at_x2 = test::term_hessian(galerkin, x2, clamp);
+  ASSERT_FALSE(clamped_at_x2 == at_x2) << "the clamp must change this Hessian for the test to tell them apart";
+  EXPECT_TRUE(test::term_hessian(lagged, x2, clamp) == clamped_at_x2);  // so does a projection's first use
+  EXPECT_TRUE(test::term_hessian(lagged, x2, none) == at_x1);           // the exact blocks were kept
+  EXPECT_TRUE(test::term_hessian(lagged, x1, clamp) == clamped_at_x2);  // and so were the clamped ones
   // Value and gradient are never lagged.
   EXPECT_EQ(lagged.value(x2), galerkin.value(x2));
   EXPECT_TRUE(test::term_gradient(lagged, x2) == test::term_gradient(galerkin, x2));
