@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Newton's Hessian projections side by side: "clamp" (every indefinite element Hessian clamped)
-against "exact_first" (at every Newton iterate the exact Hessian, reassembled clamped only when
-CHOLMOD finds the assembled system indefinite), issue 16.
+against "exact_first", the default (a Newton iterate tries the exact Hessian and is reassembled
+clamped when CHOLMOD finds the assembled system indefinite, or at once after a capped step),
+issue 16.
 
 For each scene, runs `pd simulate` progressively (every level) and directly on the finest mesh,
 once per projection, the two projections of one configuration at the same time (one per core,

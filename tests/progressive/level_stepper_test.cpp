@@ -182,7 +182,7 @@ TEST(LevelStepper, ExactFirstSolvesASaggingSheetInNoMoreIterationsThanClampAndCo
   // hinges with indefinite element Hessians, the case exact_first is for (docs/performance.md,
   // "Which Hessian projection"). Same equations, same tolerance: the frames agree to within the
   // motion's sensitivity, and the exact Hessian must not cost iterations.
-  const auto run = [](HessianProjection projection, int* iterations, int* fallbacks) {
+  const auto run = [](HessianProjection projection, int* iterations, int* fallbacks, int* exact) {
     // Long steps (h = 0.05 s) so the inertia term's M / h^2 no longer keeps every assembled
     // system positive definite.
     Scene scene = make_scene(0.05, 20, Vec3(0, -9.81, 0));
@@ -192,17 +192,20 @@ TEST(LevelStepper, ExactFirstSolvesASaggingSheetInNoMoreIterationsThanClampAndCo
     scene.objects[0].pins.push_back(pins);
     scene.solver.projection = projection;
     SceneSystem sys = build_scene_system(scene);
-    *iterations = *fallbacks = 0;
+    *iterations = *fallbacks = *exact = 0;
     return run_scene(scene, sys, nullptr, [&](const FrameRecord& r) {
       *iterations += r.newton.iterations;
       *fallbacks += r.newton.projection_fallbacks;
+      *exact += r.newton.exact_hessians;
     });
   };
-  int clamp_its = 0, clamp_fallbacks = 0, exact_its = 0, exact_fallbacks = 0;
-  const Eigen::VectorXd clamp = run(HessianProjection::Clamp, &clamp_its, &clamp_fallbacks);
-  const Eigen::VectorXd exact = run(HessianProjection::ExactFirst, &exact_its, &exact_fallbacks);
-  std::printf("sagging sheet, 20 steps: clamp %d Newton iterations, exact_first %d (%d fallbacks)\n", clamp_its,
-              exact_its, exact_fallbacks);
+  int clamp_its = 0, clamp_fallbacks = 0, clamp_exact = 0, exact_its = 0, exact_fallbacks = 0, exact_solves = 0;
+  const Eigen::VectorXd clamp = run(HessianProjection::Clamp, &clamp_its, &clamp_fallbacks, &clamp_exact);
+  const Eigen::VectorXd exact = run(HessianProjection::ExactFirst, &exact_its, &exact_fallbacks, &exact_solves);
+  std::printf("sagging sheet, 20 steps: clamp %d Newton iterations, exact_first %d (%d exact, %d fallbacks)\n",
+              clamp_its, exact_its, exact_solves, exact_fallbacks);
+  EXPECT_EQ(clamp_exact, 0) << "only exact_first counts exact solves";
+  EXPECT_GT(exact_solves, 0) << "the exact Hessian must be used, or this compares clamp with itself";
   EXPECT_EQ(clamp_fallbacks, 0) << "only exact_first falls back";
   EXPECT_GT(exact_fallbacks, 0) << "the long steps must make an exact system indefinite, or the fallback is untested";
   EXPECT_LE(exact_its, clamp_its);
