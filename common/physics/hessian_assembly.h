@@ -68,6 +68,13 @@ class HessianAssembly {
 
  private:
   void rebuild_pattern();
+  // rebuild_pattern's parts (hessian_assembly.cpp)
+  template <class F>
+  void for_element_blocks(int e, F&& f) const;
+  void index_elements();
+  void build_blocks(std::vector<int>& occurrence_block);
+  void build_columns();
+  void build_gather(const std::vector<int>& occurrence_block);
 
   // Makes values_[0, n) usable and num_values_ = n. values_ only grows: it is not cleared between
   // assemblies, which would zero-fill tens of megabytes every Newton iteration.
@@ -110,9 +117,14 @@ class HessianAssembly {
   size_t num_values_ = 0;
   std::vector<size_t> element_offsets_;          // add_elements: first value of each element
   Eigen::VectorXd diagonal_;
-  // values_[gather_value_[g]] for g in [gather_begin_[s], gather_begin_[s + 1]) land in matrix slot s.
-  std::vector<int> gather_begin_, gather_value_;  // int: as the matrix's own indices
-  std::vector<int> diagonal_slot_;               // value index of diagonal entry per dof
+  // Vertex blocks of the pattern (see rebuild_pattern): block q is (block_row_[q], block_column_[q])
+  // in vertices, column vertex w's blocks are [block_first_[w], block_first_[w + 1]). The values of
+  // block q's occurrences in elements start at values_[gather_value_[g]] for g in
+  // [gather_begin_[q], gather_begin_[q + 1]), ascending.
+  std::vector<int> block_first_, block_row_, block_column_;
+  std::vector<size_t> gather_begin_, gather_value_;
+  // rebuild_pattern's per-element index: first stencil entry, first value, first block occurrence
+  std::vector<size_t> element_stencil_, element_first_value_, element_first_block_;
   std::vector<char> fixed_;
   SparseMatrix matrix_;
   bool have_pattern_ = false;
