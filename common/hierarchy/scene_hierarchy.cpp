@@ -201,26 +201,33 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 // One object's locations: to_finest[l] (the finest vertices on level l, every level) and to_next[l]
-// (level l + 1's vertices on level l, l < L), in the object's own ids.
+// (level l + 1's vertices on level l, l < L), in the object's own ids; and batches[l], level l's
+// collapses split into batches (split_batches; empty for the finest level).
 struct ObjectLocations {
   std::vector<std::vector<SurfaceLocation>> to_finest, to_next;
+  std::vector<std::vector<std::vector<int>>> batches;
 };
 
-// Every object's locations, computed as independent tasks in parallel. Per object with L > 0: task 0
-// tracks the finest vertices down every level (locate_finest_on_all_levels); its first leg, through
-// level L - 1's collapses, is exactly locate_through_collapses for L - 1 (the same points through the
-// same collapses; the ids differ only by a rotation, undone by the rows), so to_next[L - 1] is a
-// copy of to_finest[L - 1], not a second tracking of the largest leg. Task j (1 <= j < L) locates
-// level j's vertices on level j - 1. Each task writes only its own outputs, so the result does not
-// depend on the thread count. Adds each level's share of the time to seconds (the finest chain's by
-// collapse counts, as the decimation's). Errors mean records that do not fit their levels (a bug,
-// not bad input): std::logic_error naming the object and the level.
+// Every object's locations and batches, computed as independent tasks in parallel. Per object with
+// L > 0: task 0 tracks the finest vertices down every level (locate_finest_on_all_levels); its first
+// leg, through level L - 1's collapses, is exactly locate_through_collapses for L - 1 (the same
+// points through the same collapses; the ids differ only by a rotation, undone by the rows), so
+// to_next[L - 1] is a copy of to_finest[L - 1], not a second tracking of the largest leg. Task j
+// (1 <= j < L) locates level j's vertices on level j - 1; task L + l splits level l's collapses into
+// batches (l < L). Each task writes only its own outputs, so the result does not depend on the
+// thread count. Adds each level's share of the time to seconds (the finest chain's by collapse
+// counts, as the decimation's). Errors mean records that do not fit their levels (a bug, not bad
+// input): std::logic_error naming the object and the level.
 std::vector<ObjectLocations> locate_objects(const Scene& scene, const std::vector<ObjectHierarchy>& objects,
                                             std::vector<double>& seconds) {
   const int L = scene.hierarchy.levels - 1;
-  const std::size_t nl = static_cast<std::size_t>(L) + 1, per_object = L > 0 ? static_cast<std::size_t>(L) : 1;
+  const std::size_t nl = static_cast<std::size_t>(L) + 1, locate = L > 0 ? static_cast<std::size_t>(L) : 1;
+  const std::size_t per_object = locate + static_cast<std::size_t>(L);
   std::vector<ObjectLocations> out(objects.size());
-  for (ObjectLocations& o : out) o.to_next.resize(nl - 1);
+  for (ObjectLocations& o : out) {
+    o.to_next.resize(nl - 1);
+    o.batches.resize(nl);
+  }
   std::vector<double> task_seconds(objects.size() * per_object, 0.0);
   parallel_for_index(static_cast<int>(task_seconds.size()), [&](int t) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -230,12 +237,15 @@ std::vector<ObjectLocations> locate_objects(const Scene& scene, const std::vecto
       if (task == 0) {
         out[k].to_finest = locate_finest_on_all_levels(lv);
         if (L > 0) out[k].to_next[nl - 2] = out[k].to_finest[nl - 2];
-      } else {
+      } else if (task < locate) {
         const std::size_t l = task - 1;
         out[k].to_next[l] = locate_through_collapses(lv[l + 1].mesh, lv[l].collapses, lv[l].mesh, lv[l].coarse_to_fine);
+      } else {
+        out[k].batches[task - locate] = split_batches(lv[task - locate].collapses);
       }
     } catch (const std::invalid_argument& e) {
-      const std::string where = task == 0 ? std::string("finest locations") : level_label(static_cast<int>(task - 1), L);
+      const std::string where = task == 0 ? std::string("finest locations")
+                                          : level_label(static_cast<int>(task < locate ? task - 1 : task - locate), L);
       throw std::logic_error(object_prefix(scene, k) + where + ": " + e.what());
     }
     task_seconds[static_cast<std::size_t>(t)] = seconds_since(t0);
@@ -244,7 +254,8 @@ std::vector<ObjectLocations> locate_objects(const Scene& scene, const std::vecto
     std::size_t total = 0;
     for (std::size_t l = 0; l + 1 < nl; ++l) total += objects[k].levels[l].collapses.size();
     for (std::size_t l = 0; l + 1 < nl; ++l) {
-      if (l + 1 < per_object) seconds[l] += task_seconds[k * per_object + 1 + l];
+      if (l + 1 < locate) seconds[l] += task_seconds[k * per_object + 1 + l];
+      seconds[l] += task_seconds[k * per_object + locate + l];
       if (total > 0)
         seconds[l] += task_seconds[k * per_object] * static_cast<double>(objects[k].levels[l].collapses.size()) /
                       static_cast<double>(total);
@@ -265,24 +276,25 @@ SceneHierarchy build_scene_hierarchy(const Scene& scene, std::vector<HierarchyLe
   h.hash = hash_of(scene, plans);
   std::vector<double> seconds(nl, 0.0);
 
-  // Per object. One decimation run makes all of an object's levels; its time is split over the
-  // levels in proportion to their collapse counts.
-  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+  // Per object, objects in parallel (each decimation reads only its own object; CGAL's edge
+  // collapse keeps no shared state between meshes; an error is the one of the first object that
+  // fails, as in a serial loop). One decimation run makes all of an object's levels; its time is
+  // split over the levels in proportion to their collapse counts.
+  h.objects.resize(scene.objects.size());
+  std::vector<double> build_time(scene.objects.size(), 0.0);
+  parallel_for_index(static_cast<int>(scene.objects.size()), [&](int k) {
     const auto t0 = std::chrono::steady_clock::now();
-    ObjectHierarchy oh;
-    oh.levels = build_object_levels(scene, k, plans[k]);
-    const double build_time = seconds_since(t0);
-    oh.batches.resize(nl);
+    h.objects[static_cast<std::size_t>(k)].levels = build_object_levels(scene, static_cast<std::size_t>(k), plans[static_cast<std::size_t>(k)]);
+    build_time[static_cast<std::size_t>(k)] = seconds_since(t0);
+  }, 1);
+  for (std::size_t k = 0; k < h.objects.size(); ++k) {
+    const std::vector<Level>& levels = h.objects[k].levels;
     std::size_t total = 0;
-    for (int l = 0; l < L; ++l) total += oh.levels[static_cast<std::size_t>(l)].collapses.size();
-    for (int l = 0; l < L; ++l) {
-      const Level& lv = oh.levels[static_cast<std::size_t>(l)];
-      const auto t1 = std::chrono::steady_clock::now();
-      oh.batches[static_cast<std::size_t>(l)] = split_batches(lv.collapses);
-      seconds[static_cast<std::size_t>(l)] += seconds_since(t1);
-      if (total > 0) seconds[static_cast<std::size_t>(l)] += build_time * static_cast<double>(lv.collapses.size()) / static_cast<double>(total);
-    }
-    h.objects.push_back(std::move(oh));
+    for (int l = 0; l < L; ++l) total += levels[static_cast<std::size_t>(l)].collapses.size();
+    for (int l = 0; l < L; ++l)
+      if (total > 0)
+        seconds[static_cast<std::size_t>(l)] +=
+            build_time[k] * static_cast<double>(levels[static_cast<std::size_t>(l)].collapses.size()) / static_cast<double>(total);
   }
 
   // Stacked meshes, objects in scene order (SceneSystem's global ids at the finest level).
@@ -311,22 +323,28 @@ SceneHierarchy build_scene_hierarchy(const Scene& scene, std::vector<HierarchyLe
   }
 
   // Operators. Locations are computed per object (each on its own meshes) and shifted to the stacked
-  // face ids.
+  // face ids; then every level's two operators are built, each its own task in parallel (task 2l:
+  // level l's to_finest_prolongation, task 2l + 1: its to_next).
   const Positions& finest_rest = h.levels[static_cast<std::size_t>(L)].rest.V;
   std::vector<ObjectLocations> located = locate_objects(scene, h.objects, seconds);
   const std::size_t no = h.objects.size();
-  for (std::size_t l = 0; l < nl; ++l) {
-    const auto t0 = std::chrono::steady_clock::now();
-    SceneLevel& s = h.levels[l];
-    std::vector<SurfaceLocation> to_next, to_finest;
+  for (std::size_t k = 0; k < no; ++k) h.objects[k].batches = std::move(located[k].batches);
+  std::vector<std::vector<SurfaceLocation>> to_next(nl - 1), to_finest(nl);
+  for (std::size_t l = 0; l < nl; ++l)
     for (std::size_t k = 0; k < no; ++k) {
-      if (l + 1 < nl) append_locations(to_next, std::move(located[k].to_next[l]), s.face_offsets[k]);
-      append_locations(to_finest, std::move(located[k].to_finest[l]), s.face_offsets[k]);
+      if (l + 1 < nl) append_locations(to_next[l], std::move(located[k].to_next[l]), h.levels[l].face_offsets[k]);
+      append_locations(to_finest[l], std::move(located[k].to_finest[l]), h.levels[l].face_offsets[k]);
     }
-    if (l + 1 < nl) s.to_next.emplace(s.rest.V, s.rest.F, h.levels[l + 1].rest.V, to_next);
-    s.to_finest_prolongation.emplace(s.rest.V, s.rest.F, finest_rest, to_finest);
-    seconds[l] += seconds_since(t0);
-  }
+  std::vector<double> operator_seconds(2 * nl - 1, 0.0);
+  parallel_for_index(static_cast<int>(operator_seconds.size()), [&](int t) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::size_t l = static_cast<std::size_t>(t) / 2;
+    SceneLevel& s = h.levels[l];
+    if (t % 2 == 0) s.to_finest_prolongation.emplace(s.rest.V, s.rest.F, finest_rest, to_finest[l]);
+    else s.to_next.emplace(s.rest.V, s.rest.F, h.levels[l + 1].rest.V, to_next[l]);
+    operator_seconds[static_cast<std::size_t>(t)] = seconds_since(t0);
+  }, 1);
+  for (std::size_t t = 0; t < operator_seconds.size(); ++t) seconds[t / 2] += operator_seconds[t];
 
   if (report) {
     report->assign(nl, HierarchyLevelReport{});

@@ -335,8 +335,8 @@ void expect_same_operator(const ShellProlongation& a, const ShellProlongation& b
   for (std::size_t i = 0; i < a.tangent_offsets().size(); ++i) EXPECT_TRUE(a.tangent_offsets()[i] == b.tangent_offsets()[i]);
 }
 
-// The second build runs the location tasks on two threads (the first on one): the operators must
-// not depend on the thread count.
+// The second build runs its parallel parts (the two objects' decimations, the location and batch
+// tasks, the operators) on two threads, the first on one: nothing may depend on the thread count.
 TEST(SceneHierarchy, BuildsOnOneAndTwoThreadsAreBitIdenticalAndTheHashMatches) {
   const Scene scene = parse(sheet_and_sphere());
   const int saved = element_threads();
