@@ -186,6 +186,7 @@ void BarrierPotential::set_thin_pairs(CandidatePairs pairs) {
     list->erase(std::unique(list->begin(), list->end()), list->end());
   }
   thin_ = std::move(pairs);
+  active_valid_ = false;  // the pairs' offsets changed
 }
 
 double BarrierPotential::pair_offset(int kind, const std::array<int, 2>& pair) const {
@@ -210,41 +211,56 @@ CandidatePairs BarrierPotential::pairs_within_offset(const Eigen::VectorXd& x) c
   return out;
 }
 
-std::vector<BarrierPotential::ActivePair> BarrierPotential::active_pairs(const Eigen::VectorXd& x) const {
+const std::vector<BarrierPotential::ActivePair>& BarrierPotential::active_pairs(const Eigen::VectorXd& x) const {
+  if (active_valid_ && cached_active_x_.size() == x.size() && cached_active_x_ == x) return cached_active_;
   const CandidatePairs& pairs = candidates(x);
   const double active_d2 = barrier_active_squared_distance(settings_.dhat, settings_.offset);
   const double thin_active_d2 = barrier_active_squared_distance(settings_.dhat + settings_.offset, 0.0);
   const bool any_thin = !thin_.point_triangle.empty() || !thin_.edge_edge.empty();
   const int num_pt = static_cast<int>(pairs.point_triangle.size());
   const int num_candidates = num_pt + static_cast<int>(pairs.edge_edge.size());
-  // One slot per candidate, filled in parallel, then the active ones kept in candidate order.
-  std::vector<ActivePair> slots(static_cast<size_t>(num_candidates));
-  std::vector<char> active(static_cast<size_t>(num_candidates), 0);
-  parallel_for_index(num_candidates, [&](int i) {
-    ActivePair& p = slots[static_cast<size_t>(i)];
+  // Candidate i as an ActivePair, but for d2 (everything but the distance).
+  const auto make_pair = [&](int i, ActivePair& p) {
     if (i < num_pt) {
       const auto& pair = pairs.point_triangle[static_cast<size_t>(i)];
       p.kind = kPointTriangle;
       p.v = point_triangle_stencil(primitives_, pair);
-      p.x12 = gather(x, p.v);
-      p.d2 = point_triangle_squared_distance(p.x12);
       p.eps_x = 0.0;
       p.offset = any_thin ? pair_offset(kPointTriangle, pair) : settings_.offset;
     } else {
       const auto& pair = pairs.edge_edge[static_cast<size_t>(i - num_pt)];
       p.kind = kEdgeEdge;
       p.v = edge_edge_stencil(primitives_, pair);
-      p.x12 = gather(x, p.v);
-      p.d2 = edge_edge_squared_distance(p.x12);
       p.eps_x = kEdgeEdgeMollifierScale * edge_rest_length2_[pair[0]] * edge_rest_length2_[pair[1]];
       p.offset = any_thin ? pair_offset(kEdgeEdge, pair) : settings_.offset;
     }
-    active[static_cast<size_t>(i)] = p.d2 < (p.offset == settings_.offset ? active_d2 : thin_active_d2);
+    p.x12 = gather(x, p.v);
+  };
+  // Two passes on every element thread: each candidate's squared distance and whether it is active
+  // (9 bytes per candidate: a whole ActivePair per candidate was ~140 bytes of fresh memory per
+  // call, and a third to a half of the candidates are active), then the active ones, in candidate
+  // order. The same pairs and values as one pass.
+  std::vector<double> d2(static_cast<size_t>(num_candidates));
+  std::vector<char> active(static_cast<size_t>(num_candidates), 0);
+  parallel_for_index(num_candidates, [&](int i) {
+    ActivePair p;
+    make_pair(i, p);
+    const double d = p.kind == kPointTriangle ? point_triangle_squared_distance(p.x12) : edge_edge_squared_distance(p.x12);
+    d2[static_cast<size_t>(i)] = d;
+    active[static_cast<size_t>(i)] = d < (p.offset == settings_.offset ? active_d2 : thin_active_d2);
   });
-  std::vector<ActivePair> out;
-  for (size_t i = 0; i < slots.size(); ++i)
-    if (active[i]) out.push_back(slots[i]);
-  return out;
+  std::vector<int> index;
+  for (int i = 0; i < num_candidates; ++i)
+    if (active[static_cast<size_t>(i)]) index.push_back(i);
+  cached_active_.resize(index.size());
+  parallel_for_index(static_cast<int>(index.size()), [&](int j) {
+    ActivePair& p = cached_active_[static_cast<size_t>(j)];
+    make_pair(index[static_cast<size_t>(j)], p);
+    p.d2 = d2[static_cast<size_t>(index[static_cast<size_t>(j)])];
+  });
+  cached_active_x_ = x;
+  active_valid_ = true;
+  return cached_active_;
 }
 
 template <class F>
@@ -285,14 +301,14 @@ Mat<12> BarrierPotential::pair_hessian(const ActivePair& p) const {
 // value, gradient and Hessian run on every element thread with thread-count-independent results
 // (physics/element_loops.h); sums go in active_pairs' order.
 double BarrierPotential::value(const Eigen::VectorXd& x) const {
-  const std::vector<ActivePair> pairs = active_pairs(x);
+  const std::vector<ActivePair>& pairs = active_pairs(x);
   return settings_.kappa * sum_element_energies(static_cast<int>(pairs.size()),
                                                 [&](int i) { return pair_energy(pairs[static_cast<size_t>(i)]); });
 }
 
 Eigen::VectorXd BarrierPotential::unit_stiffness_gradient(const Eigen::VectorXd& x) const {
   Eigen::VectorXd g = Eigen::VectorXd::Zero(x.size());
-  const std::vector<ActivePair> pairs = active_pairs(x);
+  const std::vector<ActivePair>& pairs = active_pairs(x);
   add_element_gradients<4>(
       static_cast<int>(pairs.size()), [&](int i) { return pairs[static_cast<size_t>(i)].v; },
       [&](int i) { return pair_gradient(pairs[static_cast<size_t>(i)]); }, g);
@@ -307,7 +323,7 @@ void BarrierPotential::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g
 void BarrierPotential::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                                    HessianAssembly& hessian) const {
   const double kappa = settings_.kappa;
-  const std::vector<ActivePair> pairs = active_pairs(x);
+  const std::vector<ActivePair>& pairs = active_pairs(x);
   add_element_hessians<4>(
       static_cast<int>(pairs.size()), [&](int i) { return pairs[static_cast<size_t>(i)].v; },
       [&](int i) { return project_hessian<12>(kappa * pair_hessian(pairs[static_cast<size_t>(i)]), projection); },

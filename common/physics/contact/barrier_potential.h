@@ -101,8 +101,10 @@ class BarrierPotential : public EnergyTerm, public FrictionSource {
     double d2, eps_x, offset;
   };
   // The active pairs at x, point-triangle pairs first, each list in the broad phase's order (the
-  // order every sum over pairs uses). Distances are computed on every element thread.
-  std::vector<ActivePair> active_pairs(const Eigen::VectorXd& x) const;
+  // order every sum over pairs uses). Distances are computed on every element thread. Kept while x
+  // is bit-for-bit unchanged, as the candidates are: the reference is valid until the next call
+  // with another x (or set_thin_pairs).
+  const std::vector<ActivePair>& active_pairs(const Eigen::VectorXd& x) const;
   // Calls f(kind, stencil, x12, d2, eps_x, offset) for every active pair, in active_pairs' order.
   template <class F>
   void for_each_active_pair(const Eigen::VectorXd& x, F&& f) const;
@@ -119,6 +121,9 @@ class BarrierPotential : public EnergyTerm, public FrictionSource {
   ContactPrimitives primitives_;
   mutable Eigen::VectorXd cached_x_;
   mutable CandidatePairs cached_pairs_;
+  mutable Eigen::VectorXd cached_active_x_;  // active_pairs' cache (the x it was computed at)
+  mutable std::vector<ActivePair> cached_active_;
+  mutable bool active_valid_ = false;
   std::vector<double> edge_rest_length2_;  // |e_rest|^2 per edge, for the mollifier threshold
   ContactSettings settings_;
   Eigen::MatrixXd friction_mu_;  // (#objects, #objects) or empty (no friction)

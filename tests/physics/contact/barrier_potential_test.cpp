@@ -80,6 +80,37 @@ TEST(BarrierPotential, MaxStepStopsATriangleBeforeItPassesThroughAnother) {
   EXPECT_GT(term.stats(x1).min_gap, 0.0);
 }
 
+// The active pairs are kept while x is unchanged (value, gradient and Hessian of one Newton iterate
+// share them): the same term evaluated at x, then at another state, then at x again, and a fresh
+// term at each state, agree bit for bit; set_thin_pairs at an unchanged x is seen at once (a pair
+// inside the offset: infinite before, finite after).
+TEST(BarrierPotential, ActivePairsAreReusedOnlyWhileXAndTheThinPairsAreUnchanged) {
+  TwoSquares s;
+  ContactSettings cs;
+  cs.dhat = 0.1;
+  cs.offset = 0.1;
+  cs.kappa = 10.0;
+  Eigen::VectorXd far = s.x;
+  for (int v = 9; v < 18; ++v) far[3 * v + 2] += 0.05;  // the upper square lifted 5 cm: none inside the offset, some active
+  BarrierPotential term(s.prims, s.rest, cs);
+  const BarrierPotential fresh_far(s.prims, s.rest, cs);
+  ASSERT_TRUE(std::isfinite(fresh_far.value(far)));
+  ASSERT_GT(fresh_far.value(far), 0.0);  // pairs active there too, other ones
+  EXPECT_FALSE(std::isfinite(term.value(s.x)));
+  EXPECT_EQ(term.value(far), fresh_far.value(far));
+  const Eigen::VectorXd g_far = test::term_gradient(term, far);
+  EXPECT_TRUE(g_far == test::term_gradient(fresh_far, far));
+  EXPECT_FALSE(std::isfinite(term.value(s.x)));  // back at x: not the pairs of `far`
+
+  term.set_thin_pairs(term.pairs_within_offset(s.x));  // same x: the cached pairs must not be used
+  BarrierPotential fresh_thin(s.prims, s.rest, cs);
+  fresh_thin.set_thin_pairs(fresh_thin.pairs_within_offset(s.x));
+  ASSERT_TRUE(std::isfinite(fresh_thin.value(s.x)));
+  EXPECT_EQ(term.value(s.x), fresh_thin.value(s.x));
+  EXPECT_TRUE(test::term_hessian(term, s.x, HessianProjection::Clamp) ==
+              test::term_hessian(fresh_thin, s.x, HessianProjection::Clamp));
+}
+
 // Thin pairs (set_thin_pairs) contact at distance 0 instead of the offset. The squares' closest
 // pairs are ~0.1 m apart, so an offset of 0.1 m puts some of them inside it and leaves others out.
 TEST(BarrierPotential, ThinPairsContactAtDistanceZeroAndEveryOtherPairAtTheOffset) {
