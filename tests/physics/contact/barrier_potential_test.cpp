@@ -14,11 +14,13 @@
 #include "progressive/test_scenes.h"
 #include "support/intersection_checker.h"
 #include "support/term_eval.h"
+#include "support/contact_settings.h"
 #include "support/two_squares.h"
 
 namespace pd {
 namespace {
 
+using test::contact_settings;
 using test::TwoSquares;
 
 // Contact primitives of a scene system: every face and edge, objects as in the system, self-contact
@@ -37,11 +39,7 @@ ContactPrimitives primitives_of(const SceneSystem& sys, std::vector<char> self_c
 
 TEST(BarrierPotential, GradientAndHessianMatchFiniteDifferencesWithActivePairs) {
   TwoSquares s;
-  ContactSettings cs;
-  cs.dhat = 0.2;
-  cs.offset = 0.01;
-  cs.kappa = 10.0;
-  const BarrierPotential term(s.prims, s.rest, cs);
+  const BarrierPotential term(s.prims, s.rest, contact_settings(0.2, 0.01, 10.0));
   const ContactStats st = term.stats(s.x);
   ASSERT_GT(st.active_point_triangle, 0);
   ASSERT_GT(st.active_edge_edge, 0);
@@ -86,10 +84,7 @@ TEST(BarrierPotential, MaxStepStopsATriangleBeforeItPassesThroughAnother) {
 // inside the offset: infinite before, finite after).
 TEST(BarrierPotential, ActivePairsAreReusedOnlyWhileXAndTheThinPairsAreUnchanged) {
   TwoSquares s;
-  ContactSettings cs;
-  cs.dhat = 0.1;
-  cs.offset = 0.1;
-  cs.kappa = 10.0;
+  const ContactSettings cs = contact_settings(0.1, 0.1, 10.0);
   Eigen::VectorXd far = s.x;
   for (int v = 9; v < 18; ++v) far[3 * v + 2] += 0.05;  // the upper square lifted 5 cm: none inside the offset, some active
   BarrierPotential term(s.prims, s.rest, cs);

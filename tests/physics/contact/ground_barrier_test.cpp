@@ -17,10 +17,13 @@
 #include <Eigen/Geometry>
 
 #include "physics/contact/barrier.h"
+#include "support/contact_settings.h"
 #include "support/term_eval.h"
 
 namespace pd {
 namespace {
+
+using test::contact_settings;
 
 // A ground with unit normal n and height h, and vertex i placed at signed distance offset + gaps[i]
 // from it, shifted along the plane by a vertex-dependent tangential vector so no two coincide.
@@ -38,14 +41,6 @@ struct GroundScene {
   }
   double gap(const Eigen::VectorXd& y, int v, double offset) const { return n.dot(y.segment<3>(3 * v)) - height - offset; }
 };
-
-ContactSettings settings(double dhat, double offset, double kappa) {
-  ContactSettings cs;
-  cs.dhat = dhat;
-  cs.offset = offset;
-  cs.kappa = kappa;
-  return cs;
-}
 
 void print_fd(const char* what, const test::FdResult& g, const test::FdResult& h) {
   auto errors = [](const test::FdResult& r) {
@@ -67,7 +62,7 @@ TEST(GroundBarrier, GradientAndHessianMatchFiniteDifferences) {
   // (Gaps down to 1e-7 m: next test, with steps to match.)
   const double dhat = 0.05, offset = 2e-3;
   GroundScene s(Vec3(0, 1, 0), -0.1, offset, {5e-3, 0.01, 0.02, 0.045, 0.08, 0.5, -0.3});
-  const GroundBarrier term({0, 1, 2, 3, 4, 5}, s.n, s.height, settings(dhat, offset, 10.0), 0.3);
+  const GroundBarrier term({0, 1, 2, 3, 4, 5}, s.n, s.height, contact_settings(dhat, offset, 10.0), 0.3);
   EXPECT_EQ(term.name(), "ground");
   const ContactStats st = term.stats(s.x);
   EXPECT_EQ(st.active_point_triangle, 4);
@@ -100,7 +95,7 @@ TEST(GroundBarrier, DerivativesMatchFiniteDifferencesAtGapsDownTo1e7Metres) {
   int comparisons = 0;
   for (double offset : {0.0, 5e-4}) {
     GroundScene s(Vec3(0, 0, 1), offset == 0.0 ? 0.0 : 0.01, offset, {1e-7, 1e-6, 3e-4, 2e-3});
-    const GroundBarrier term({0, 1, 2, 3}, s.n, s.height, settings(1e-3, offset, 1e4), 0.0);
+    const GroundBarrier term({0, 1, 2, 3}, s.n, s.height, contact_settings(1e-3, offset, 1e4), 0.0);
     ASSERT_EQ(term.stats(s.x).active_point_triangle, 3);
     auto f = [&](const Eigen::VectorXd& y) { return term.value(y); };
     auto g = [&](const Eigen::VectorXd& y) { return test::term_gradient(term, y); };
@@ -118,7 +113,7 @@ TEST(GroundBarrier, TiltedGroundMatchesTheBarrierOfThePointPlaneDistance) {
   const double dhat = 0.02, offset = 1e-3, kappa = 3.0;
   const Vec3 normal(1.0, 2.0, -0.5);  // not unit: the constructor normalises it
   GroundScene s(normal, 0.3, offset, {4e-3, 8e-3, 0.012, 0.019, 0.05});
-  const GroundBarrier term({0, 1, 2, 3, 4}, normal, 0.3, settings(dhat, offset, kappa), 0.5);
+  const GroundBarrier term({0, 1, 2, 3, 4}, normal, 0.3, contact_settings(dhat, offset, kappa), 0.5);
   EXPECT_NEAR((term.normal() - s.n).norm(), 0.0, 1e-15);
   // Value: kappa * sum b(d^2) with d the distance to the plane, computed independently here.
   double expected = 0.0;
@@ -145,7 +140,7 @@ TEST(GroundBarrier, ValueIsInfiniteAtAndBelowTheOffset) {
   // d^2 alone would look far away), 3 just above the offset, 4 not listed.
   Eigen::VectorXd x(15);
   x << 0, 0, offset, 1, 0, 2e-4, 0, 1, -1.0, 1, 1, offset + 1e-9, 2, 2, -5.0;
-  const ContactSettings cs = settings(1e-3, offset, 1.0);
+  const ContactSettings cs = contact_settings(1e-3, offset, 1.0);
   EXPECT_EQ(GroundBarrier({0}, Vec3(0, 0, 1), 0.0, cs, 0).value(x), std::numeric_limits<double>::infinity());
   EXPECT_EQ(GroundBarrier({1}, Vec3(0, 0, 1), 0.0, cs, 0).value(x), std::numeric_limits<double>::infinity());
   EXPECT_EQ(GroundBarrier({2}, Vec3(0, 0, 1), 0.0, cs, 0).value(x), std::numeric_limits<double>::infinity());
@@ -175,7 +170,7 @@ TEST(GroundBarrier, MaxStepKeepsEveryVertexFeasibleOnRandomSteps) {
   int cut = 0, trials = 0;
   double worst_margin = std::numeric_limits<double>::infinity();  // min over trials of new gap / ((1 - eta) old gap)
   for (double ratio : {0.9, 0.5, 0.99}) {
-    ContactSettings cs = settings(1e-3, offset, 1.0);
+    ContactSettings cs = contact_settings(1e-3, offset, 1.0);
     cs.ccd_ratio = ratio;
     for (int trial = 0; trial < 200; ++trial) {
       std::vector<double> gaps(12);
@@ -213,7 +208,7 @@ TEST(GroundBarrier, MaxStepKeepsEveryVertexFeasibleOnRandomSteps) {
 TEST(GroundBarrier, MaxStepIsOneWhenNoVertexApproaches) {
   const double offset = 1e-3;
   GroundScene s(Vec3(0, 1, 0), 0.0, offset, {1e-6, 1e-4, 0.5});
-  const GroundBarrier term({0, 1, 2}, s.n, 0.0, settings(1e-3, offset, 1.0), 0.0);
+  const GroundBarrier term({0, 1, 2}, s.n, 0.0, contact_settings(1e-3, offset, 1.0), 0.0);
   Eigen::VectorXd dx(9);
   dx << 0.3, 0.2, -0.1, -1.0, 0.0, 2.0, 0.0, -0.4, 0.0;  // up, sideways; vertex 2 falls, but only 0.4 m
   EXPECT_EQ(term.max_step(s.x, dx), 1.0);
@@ -230,7 +225,7 @@ TEST(GroundBarrier, FrictionContactsCarryTheNormalForceOfTheBarrier) {
   const double dhat = 0.01, offset = 1e-3, kappa = 50.0, mu = 0.4;
   const Vec3 normal(-0.2, 0.1, 1.0);
   GroundScene s(normal, 0.05, offset, {1e-4, 3e-3, 9e-3, 0.02});
-  const GroundBarrier term({3, 2, 1, 0}, normal, 0.05, settings(dhat, offset, kappa), mu);
+  const GroundBarrier term({3, 2, 1, 0}, normal, 0.05, contact_settings(dhat, offset, kappa), mu);
   std::vector<FrictionContact> contacts;
   term.friction_contacts(s.x, contacts);
   ASSERT_EQ(contacts.size(), 3u);  // vertex 3 is inactive
@@ -258,20 +253,20 @@ TEST(GroundBarrier, FrictionContactsCarryTheNormalForceOfTheBarrier) {
   std::printf("[ info     ] ground friction: lambda vs FD of E along n, worst rel err %.2e\n", worst);
   // Nothing without friction, and nothing appended when no vertex is active.
   std::vector<FrictionContact> none;
-  GroundBarrier({0, 1, 2}, normal, 0.05, settings(dhat, offset, kappa), 0.0).friction_contacts(s.x, none);
+  GroundBarrier({0, 1, 2}, normal, 0.05, contact_settings(dhat, offset, kappa), 0.0).friction_contacts(s.x, none);
   EXPECT_TRUE(none.empty());
-  GroundBarrier({3}, normal, 0.05, settings(dhat, offset, kappa), mu).friction_contacts(s.x, none);
+  GroundBarrier({3}, normal, 0.05, contact_settings(dhat, offset, kappa), mu).friction_contacts(s.x, none);
   EXPECT_TRUE(none.empty());
 }
 
 TEST(GroundBarrier, RejectsInvalidArguments) {
-  const ContactSettings ok = settings(1e-3, 0.0, 1.0);
+  const ContactSettings ok = contact_settings(1e-3, 0.0, 1.0);
   EXPECT_THROW(GroundBarrier({0}, Vec3::Zero(), 0.0, ok, 0.1), std::invalid_argument);
   EXPECT_THROW(GroundBarrier({0}, Vec3(0, std::nan(""), 1), 0.0, ok, 0.1), std::invalid_argument);
   EXPECT_THROW(GroundBarrier({0}, Vec3(0, INFINITY, 0), 0.0, ok, 0.1), std::invalid_argument);
   EXPECT_THROW(GroundBarrier({0}, Vec3(0, 1, 0), NAN, ok, 0.1), std::invalid_argument);
-  EXPECT_THROW(GroundBarrier({0}, Vec3(0, 1, 0), 0.0, settings(0.0, 0.0, 1.0), 0.1), std::invalid_argument);
-  EXPECT_THROW(GroundBarrier({0}, Vec3(0, 1, 0), 0.0, settings(1e-3, -1e-4, 1.0), 0.1), std::invalid_argument);
+  EXPECT_THROW(GroundBarrier({0}, Vec3(0, 1, 0), 0.0, contact_settings(0.0, 0.0, 1.0), 0.1), std::invalid_argument);
+  EXPECT_THROW(GroundBarrier({0}, Vec3(0, 1, 0), 0.0, contact_settings(1e-3, -1e-4, 1.0), 0.1), std::invalid_argument);
   EXPECT_THROW(GroundBarrier({0}, Vec3(0, 1, 0), 0.0, ok, -0.1), std::invalid_argument);
   EXPECT_THROW(GroundBarrier({-1}, Vec3(0, 1, 0), 0.0, ok, 0.1), std::invalid_argument);
   EXPECT_NO_THROW(GroundBarrier({}, Vec3(0, 1e-30, 0), 0.0, ok, 0.0));
