@@ -252,6 +252,7 @@ const std::vector<BarrierPotential::ActivePair>& BarrierPotential::active_pairs(
   std::vector<int> index;
   for (int i = 0; i < num_candidates; ++i)
     if (active[static_cast<size_t>(i)]) index.push_back(i);
+  active_valid_ = false;  // until refilled: an exception below must not leave a half-built cache
   cached_active_.resize(index.size());
   parallel_for_index(static_cast<int>(index.size()), [&](int j) {
     ActivePair& p = cached_active_[static_cast<size_t>(j)];
