@@ -52,7 +52,7 @@ void HessianAssembly::for_element_blocks(int e, F&& f) const {
   const int* v = &stencil_[p + 1];
   for (int a = 0; a < n; ++a)
     for (int b = 0; b < n; ++b)
-      if (v[a] >= v[b]) f(v[a], v[b], v[a] == v[b] ? 6 : 9);  // a diagonal block's lower triangle, or all 9
+      if (v[a] >= v[b]) f(v[a], v[b], block_value_count(v[a], v[b]));
 }
 
 void HessianAssembly::index_elements() {

@@ -99,14 +99,17 @@ class HessianAssembly {
             if (3 * verts[a] + i >= 3 * verts[b] + j) f(3 * a + i, 3 * b + j);
       }
   }
-  // The number of entries for_lower_entries visits, by vertex pairs: 9 for verts[a] > verts[b], 6
-  // (the lower triangle of a diagonal block) for verts[a] == verts[b]. Runs serially for every
-  // element of every assembly, so it counts pairs, not entries.
+  // The values for_lower_entries stores for the vertex pair (u, w), u = verts[a] >= w = verts[b]:
+  // the lower triangle of a diagonal block (6) or a whole block (9).
+  static constexpr int block_value_count(int u, int w) { return u == w ? 6 : 9; }
+  // The number of entries for_lower_entries visits, counted by vertex pairs (it runs serially for
+  // every element of every assembly).
   template <int N>
   static size_t lower_entry_count(const std::array<int, N>& verts) {
     size_t n = 0;
     for (int a = 0; a < N; ++a)
-      for (int b = 0; b < N; ++b) n += verts[a] > verts[b] ? 9 : verts[a] == verts[b] ? 6 : 0;
+      for (int b = 0; b < N; ++b)
+        if (verts[a] >= verts[b]) n += static_cast<size_t>(block_value_count(verts[a], verts[b]));
     return n;
   }
   template <int N>

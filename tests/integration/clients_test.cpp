@@ -19,6 +19,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <set>
 #include <string>
@@ -45,8 +46,6 @@ constexpr auto kCommandBound = 20s;   // one pd command; measured 0.03-0.4 s on 
 constexpr auto kEndBound = 60s;       // after the minute, until every job has ended
 constexpr int kMaxUnfinished = 8;     // jobs not yet seen ended: past this a client stops submitting
 constexpr unsigned kBaseSeed = 20240607;  // client k uses kBaseSeed + k; PD_CLIENTS_SEED replaces it
-
-constexpr int kRandomPriority = -1000;  // submit(): draw the priority from -1..2
 
 bool finished(const std::string& state) { return state == "done" || state == "cancelled" || state == "failed"; }
 
@@ -95,8 +94,8 @@ class Clients {
   double now() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
   test::RunResult pd(Args args);
   void problem(const std::string& what, const test::RunResult& r);
-  // The job id, 0 when it failed. priority: the job's, or kRandomPriority for a drawn one.
-  int64_t submit(int k, std::mt19937& rng, int priority = kRandomPriority);
+  // The job id, 0 when it failed. priority: the job's, or none for one drawn from -1..2.
+  int64_t submit(int k, std::mt19937& rng, std::optional<int> priority = std::nullopt);
   void cancel(int k, int64_t job);
   void status(int64_t job);
   int64_t pick_target(std::mt19937& rng);
@@ -140,7 +139,7 @@ int Clients::unfinished() {
   return n;
 }
 
-int64_t Clients::submit(int k, std::mt19937& rng, int priority) {
+int64_t Clients::submit(int k, std::mt19937& rng, std::optional<int> priority) {
   JobRecord job;
   job.owner = k;
   // Mostly previews of 3..8 frames (0.1-0.7 s on a worker); one in four the scene's 3 levels over
@@ -148,7 +147,7 @@ int64_t Clients::submit(int k, std::mt19937& rng, int priority) {
   job.preview_only = std::uniform_int_distribution<int>(0, 3)(rng) != 0;
   job.frames = job.preview_only ? std::uniform_int_distribution<int>(3, 8)(rng) : 4;
   job.priority = std::uniform_int_distribution<int>(-1, 2)(rng);
-  if (priority != kRandomPriority) job.priority = priority;
+  if (priority) job.priority = *priority;
   Args args = {"submit", test::scene_path("cube-trampoline.json"), "--frames", std::to_string(job.frames),
                "--priority", std::to_string(job.priority), "--json"};
   if (job.preview_only) args.push_back("--preview-only");

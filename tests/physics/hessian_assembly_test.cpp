@@ -142,11 +142,9 @@ TEST(HessianAssembly, BlockBuiltPatternEqualsEntryByEntryAssemblyBitForBit) {
     ASSERT_EQ(L.nonZeros(), R.nonZeros());
     EXPECT_EQ(0, std::memcmp(L.outerIndexPtr(), R.outerIndexPtr(), sizeof(int) * static_cast<size_t>(n + 1)));
     EXPECT_EQ(0, std::memcmp(L.innerIndexPtr(), R.innerIndexPtr(), sizeof(int) * static_cast<size_t>(R.nonZeros())));
-    int compared = 0;
-    for (Eigen::Index k = 0; k < R.nonZeros(); ++k, ++compared)
+    for (Eigen::Index k = 0; k < R.nonZeros(); ++k)
       ASSERT_EQ(L.valuePtr()[k], R.valuePtr()[k]) << "slot " << k;  // same bits: same sums in the same order
-    EXPECT_EQ(compared, R.nonZeros());
-    EXPECT_GT(compared, 9 * nv);  // the elements overlap: far more than the diagonal
+    EXPECT_GT(R.nonZeros(), 9 * nv);  // the elements overlap: far more entries compared than the diagonal
   }
 }
 
