@@ -1,10 +1,14 @@
 #include "hierarchy/shell_prolongation.h"
 
+#include <algorithm>
 #include <cfloat>  // DBL_EPSILON
 #include <cmath>
+#include <utility>
 
 #include <Eigen/Geometry>  // cross products
 #include <Eigen/LU>        // 2x2 determinant
+
+#include "util/parallel.h"
 
 namespace pd {
 
@@ -300,15 +304,55 @@ Eigen::VectorXd ShellProlongation::restrict_gradient(const Eigen::VectorXd& g_fi
   return stacked(Gc);
 }
 
+ShellProlongation::JacobianPlan ShellProlongation::jacobian_plan() const {
+  // Column 3v + b holds, for each fine vertex i whose face has corner v (i ascending), rows 3i..3i+2:
+  // 3 c_v entries, c_v the number of such fine vertices. Columns in order, so column 3v + b starts
+  // at 9 s_v + 3 c_v b, s_v = sum of c_u over u < v.
+  const int nf = num_fine();
+  std::vector<int> count(static_cast<size_t>(num_coarse_), 0);
+  for (int i = 0; i < nf; ++i)
+    for (int k = 0; k < 3; ++k) ++count[static_cast<size_t>(coarse_faces_(locations_[i].face, k))];
+  JacobianPlan plan;
+  plan.J.resize(3 * nf, 3 * num_coarse_);
+  plan.J.resizeNonZeros(27 * nf);
+  int* outer = plan.J.outerIndexPtr();
+  outer[0] = 0;
+  for (int c = 0; c < 3 * num_coarse_; ++c) outer[c + 1] = outer[c] + 3 * count[static_cast<size_t>(c / 3)];
+  std::vector<int> rank(static_cast<size_t>(num_coarse_), 0);  // fine vertices of column v placed so far
+  plan.first.resize(3 * static_cast<size_t>(nf));
+  int* inner = plan.J.innerIndexPtr();
+  for (int i = 0; i < nf; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const int v = coarse_faces_(locations_[i].face, k);
+      const int first = outer[3 * v] + 3 * rank[static_cast<size_t>(v)]++;
+      plan.first[3 * static_cast<size_t>(i) + k] = first;
+      const int length = outer[3 * v + 1] - outer[3 * v];
+      for (int b = 0; b < 3; ++b)
+        for (int a = 0; a < 3; ++a) inner[first + b * length + a] = 3 * i + a;
+    }
+  std::fill(plan.J.valuePtr(), plan.J.valuePtr() + plan.J.nonZeros(), 0.0);
+  return plan;
+}
+
 Eigen::SparseMatrix<double> ShellProlongation::jacobian(const Positions& Xc) const {
+  JacobianPlan plan = jacobian_plan();
+  jacobian(Xc, plan);
+  return std::move(plan.J);
+}
+
+void ShellProlongation::jacobian(const Positions& Xc, JacobianPlan& plan) const {
   check_coarse_size(Xc, "jacobian");
+  const int nf = num_fine();
+  if (plan.J.rows() != 3 * nf || plan.J.cols() != 3 * num_coarse_ || plan.J.nonZeros() != 27 * nf ||
+      !plan.J.isCompressed() || plan.first.size() != 3 * static_cast<size_t>(nf))
+    throw std::invalid_argument("shell prolongation: jacobian: the plan was not made by this operator's jacobian_plan()");
   const int mc = static_cast<int>(coarse_faces_.rows());
   std::vector<DeformedFace> faces(mc);
   for (int f : used_faces_) faces[f] = deform_face(Xc, coarse_faces_, f, bbar_inv_[f]);
 
-  std::vector<Eigen::Triplet<double>> trip;
-  trip.reserve(27 * static_cast<size_t>(num_fine()));
-  for (int i = 0; i < num_fine(); ++i) {
+  const int* outer = plan.J.outerIndexPtr();
+  double* values = plan.J.valuePtr();
+  parallel_for_index(nf, [&](int i) {
     const SurfaceLocation& loc = locations_[i];
     const DeformedFace& d = faces[loc.face];
     const Eigen::Matrix2d& Binv = bbar_inv_[loc.face];
@@ -333,13 +377,12 @@ Eigen::SparseMatrix<double> ShellProlongation::jacobian(const Positions& Xc) con
       const int v = coarse_faces_(loc.face, k);
       Mat3 B = blocks[k];
       B.diagonal().array() += loc.bary[k];
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) trip.emplace_back(3 * i + a, 3 * v + b, B(a, b));
+      const int first = plan.first[3 * static_cast<size_t>(i) + k];
+      const int length = outer[3 * v + 1] - outer[3 * v];
+      for (int b = 0; b < 3; ++b)
+        for (int a = 0; a < 3; ++a) values[first + b * length + a] = B(a, b);
     }
-  }
-  Eigen::SparseMatrix<double> J(3 * num_fine(), 3 * num_coarse_);
-  J.setFromTriplets(trip.begin(), trip.end());
-  return J;
+  });
 }
 
 }  // namespace pd

@@ -135,7 +135,23 @@ class ShellProlongation {
 
   // Exact Jacobian dP/dx of the full nonlinear P at Xc: (3nf x 3nc), stacked layout (row 3i + a,
   // column 3v + b), dimensionless. Derivation in the .cpp. Throws DegenerateProlongationTriangle.
+  // Its pattern depends only on the locations: 27 stored entries per fine vertex (3 x 3 for each
+  // vertex of its coarse face, zeros kept), rows ascending within each column.
   Eigen::SparseMatrix<double> jacobian(const Positions& Xc) const;
+
+  // Where jacobian() writes: the pattern (values zero until filled) and, per fine vertex i and face
+  // corner k (index 3i + k), the value index of the entry (row 3i, column 3v_k). The entry (3i + a,
+  // 3v_k + b) then sits b column lengths further plus a. A Newton solve asks for J at every iterate;
+  // with a plan it is written in place, on the element threads, instead of sorted from triplets.
+  struct JacobianPlan {
+    Eigen::SparseMatrix<double> J;
+    std::vector<int> first;
+  };
+  JacobianPlan jacobian_plan() const;
+  // Writes jacobian(Xc)'s values into plan.J (the same matrix bit for bit, no allocation); the
+  // plan must come from this operator's jacobian_plan() (std::invalid_argument otherwise). Throws
+  // DegenerateProlongationTriangle as jacobian() does (plan.J's values are then unspecified).
+  void jacobian(const Positions& Xc, JacobianPlan& plan) const;
 
  private:
   void check_coarse_size(const Positions& Xc, const char* what) const;

@@ -56,11 +56,12 @@ const Eigen::SparseMatrix<double>& ProlongationState::jacobian(const Eigen::Vect
   if (mode_ == ProlongedGradient::Frozen) return P_->U_stacked();
   if (!jacobian_valid_ || !same_state(x, jacobian_x_)) {
     jacobian_valid_ = false;
-    jacobian_ = P_->jacobian(as_rows(x));
+    if (jacobian_.first.empty()) jacobian_ = P_->jacobian_plan();
+    P_->jacobian(as_rows(x), jacobian_);
     jacobian_x_ = x;
     jacobian_valid_ = true;
   }
-  return jacobian_;
+  return jacobian_.J;
 }
 
 Eigen::VectorXd ProlongationState::restrict(const Eigen::VectorXd& x, const Eigen::VectorXd& g_fine) const {

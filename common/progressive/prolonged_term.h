@@ -111,7 +111,7 @@ class ProlongationState {
   mutable Eigen::VectorXd cached_x_, cached_y_;
   mutable bool cached_y_valid_ = false;
   mutable Eigen::VectorXd jacobian_x_;
-  mutable Eigen::SparseMatrix<double> jacobian_;
+  mutable ShellProlongation::JacobianPlan jacobian_;  // J's pattern made once, values per state
   mutable bool jacobian_valid_ = false;
 };
 

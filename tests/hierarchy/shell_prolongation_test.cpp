@@ -38,6 +38,7 @@
 #include "hierarchy/intrinsic_location.h"
 #include "hierarchy/shell_prolongation.h"
 #include "support/finite_difference.h"
+#include "util/parallel.h"
 
 namespace pd {
 namespace {
@@ -476,6 +477,55 @@ TEST(ShellProlongation, JacobianMatchesFiniteDifferencesAwayFromRestAndFrozenOff
                 c.name, r.best_rel_error, r.best_step, r.comparisons, gap, gap_g);
     EXPECT_GT(gap, 0.0);  // the offsets do depend on x (recorded, not bounded: it is a measurement)
   }
+}
+
+// The plan's pattern is the one a triplet build gives (27 stored entries per fine vertex, zeros
+// kept, rows ascending per column), a refill in place gives jacobian(X) bit for bit on one thread
+// and on two, and a plan made for another operator is refused.
+TEST(ShellProlongation, JacobianPlanIsRefilledInPlaceBitForBitOnAnyThreadCountAndRefusesAForeignPlan) {
+  const Hierarchy2 h = sphere();
+  const ShellProlongation P = make_prolongation(h);
+  const int nf = P.num_fine();
+  ASSERT_GE(nf, 512) << "too small for parallel_for_index to split the loop";
+  const Positions X0 = stretch_and_jitter(h.coarse.V, 3), X1 = bend_and_stretch(h.coarse.V);
+  const Eigen::SparseMatrix<double> fresh = P.jacobian(X1);
+
+  // The triplet build, from fresh's values at every (fine vertex, face corner, a, b).
+  const Eigen::MatrixXd dense = Eigen::MatrixXd(fresh);
+  std::vector<Eigen::Triplet<double>> trip;
+  for (int i = 0; i < nf; ++i)
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          const int row = 3 * i + a, col = 3 * h.coarse.F(P.locations()[i].face, k) + b;
+          trip.emplace_back(row, col, dense(row, col));
+        }
+  Eigen::SparseMatrix<double> built(3 * nf, 3 * P.num_coarse());
+  built.setFromTriplets(trip.begin(), trip.end());
+
+  auto same_bits = [](const Eigen::SparseMatrix<double>& A, const Eigen::SparseMatrix<double>& B) {
+    return A.rows() == B.rows() && A.cols() == B.cols() && A.nonZeros() == B.nonZeros() && A.isCompressed() &&
+           B.isCompressed() &&
+           std::equal(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1, B.outerIndexPtr()) &&
+           std::equal(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros(), B.innerIndexPtr()) &&
+           std::memcmp(A.valuePtr(), B.valuePtr(), sizeof(double) * static_cast<size_t>(A.nonZeros())) == 0;
+  };
+  EXPECT_EQ(fresh.nonZeros(), 27 * nf);
+  EXPECT_TRUE(same_bits(fresh, built));
+
+  const int saved = element_threads();
+  for (int threads : {1, 2}) {
+    set_element_threads(threads);
+    ShellProlongation::JacobianPlan plan = P.jacobian_plan();
+    P.jacobian(X0, plan);
+    EXPECT_FALSE(same_bits(plan.J, fresh)) << "X0 and X1 must have different Jacobians";
+    P.jacobian(X1, plan);
+    EXPECT_TRUE(same_bits(plan.J, fresh)) << threads << " threads";
+  }
+  set_element_threads(saved);
+
+  ShellProlongation::JacobianPlan foreign = make_prolongation(flat_sheet()).jacobian_plan();
+  EXPECT_THROW(P.jacobian(X1, foreign), std::invalid_argument);
 }
 
 TEST(ShellProlongation, BendingTheCoarseSheetGivesAFineShapeWithoutKinks) {
