@@ -66,10 +66,9 @@ Vec3 alpha_gradient(const Vec3& e, double len2, const Vec3& c) {
   return c / len2 - (2.0 * c.dot(e) / (len2 * len2)) * e;
 }
 
-}  // namespace
-
-double dihedral_angle(const Vec<12>& x) {
-  const HingeFrame f(x);
+// The angle and its derivatives from a frame built once per hinge and call (each public function
+// below builds one; the bending energy's gradient and Hessian share theirs).
+double angle_of(const HingeFrame& f) {
   if (f.degenerate) return 0.0;
   // (n1 x n2) is parallel to e; its signed length along e^ is the sine part.
   const double sine_part = f.n1.cross(f.n2).dot(f.e) / f.len;
@@ -78,9 +77,8 @@ double dihedral_angle(const Vec<12>& x) {
 
 // Relative-coordinate gradient (G_e, G_a, G_b) mapped back to the vertices:
 // x1 moves only e, x2 only a, x3 only b, and x0 moves all three with a minus sign.
-Vec<12> dihedral_angle_gradient(const Vec<12>& x) {
+Vec<12> angle_gradient_of(const HingeFrame& f) {
   Vec<12> g = Vec<12>::Zero();
-  const HingeFrame f(x);
   if (f.degenerate) return g;
   const double len2 = f.len * f.len;
   const Vec3 Ga = wing_gradient(f.e, f.len, f.a);
@@ -101,9 +99,8 @@ Vec<12> dihedral_angle_gradient(const Vec<12>& x) {
 //        = -F(e,a) dalpha1^T - alpha1 dF/de(e,a) + F(e,b) dalpha2^T + alpha2 dF/de(e,b).
 // Then H_x = J^T Hy J for the constant map y = J x (e = x1 - x0, a = x2 - x0, b = x3 - x0):
 // block (p, q) for p, q >= 1 is Hy[p-1][q-1]; row/column 0 collects minus the sums.
-Mat<12> dihedral_angle_hessian(const Vec<12>& x) {
+Mat<12> angle_hessian_of(const HingeFrame& f) {
   Mat<12> H = Mat<12>::Zero();
-  const HingeFrame f(x);
   if (f.degenerate) return H;
   const double len2 = f.len * f.len;
 
@@ -141,11 +138,17 @@ Mat<12> dihedral_angle_hessian(const Vec<12>& x) {
   return 0.5 * (H + H.transpose());
 }
 
+}  // namespace
+
+double dihedral_angle(const Vec<12>& x) { return angle_of(HingeFrame(x)); }
+Vec<12> dihedral_angle_gradient(const Vec<12>& x) { return angle_gradient_of(HingeFrame(x)); }
+Mat<12> dihedral_angle_hessian(const Vec<12>& x) { return angle_hessian_of(HingeFrame(x)); }
+
 HingeRest hinge_rest(const Vec<12>& X) {
   const HingeFrame f(X);
   // |n_i| = 2 A_i, so Abar1 + Abar2 = (|n1| + |n2|) / 2.
   const double area_sum = 0.5 * (f.n1.norm() + f.n2.norm());
-  return HingeRest{dihedral_angle(X), f.len * f.len / area_sum};
+  return HingeRest{angle_of(f), f.len * f.len / area_sum};
 }
 
 double hinge_bending_energy(const Vec<12>& x, const HingeRest& rest, double k) {
@@ -154,17 +157,18 @@ double hinge_bending_energy(const Vec<12>& x, const HingeRest& rest, double k) {
 }
 
 Vec<12> hinge_bending_gradient(const Vec<12>& x, const HingeRest& rest, double k) {
-  const double d = dihedral_angle(x) - rest.theta_bar;
-  return (2.0 * k * rest.weight * d) * dihedral_angle_gradient(x);
+  const HingeFrame f(x);
+  const double d = angle_of(f) - rest.theta_bar;
+  return (2.0 * k * rest.weight * d) * angle_gradient_of(f);
 }
 
 // d^2 E = 2 k w (grad theta grad theta^T + (theta - theta_bar) hess theta).
 Mat<12> hinge_bending_hessian(const Vec<12>& x, const HingeRest& rest, double k) {
   const HingeFrame f(x);
   if (f.degenerate) return Mat<12>::Zero();
-  const double d = dihedral_angle(x) - rest.theta_bar;
-  const Vec<12> g = dihedral_angle_gradient(x);
-  return (2.0 * k * rest.weight) * (g * g.transpose() + d * dihedral_angle_hessian(x));
+  const double d = angle_of(f) - rest.theta_bar;
+  const Vec<12> g = angle_gradient_of(f);
+  return (2.0 * k * rest.weight) * (g * g.transpose() + d * angle_hessian_of(f));
 }
 
 double hinge_stiffness(double bending_rigidity) { return 0.5 * bending_rigidity; }
