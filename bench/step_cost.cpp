@@ -28,7 +28,7 @@
 using namespace pd;
 
 int main(int argc, char** argv) {
-  limit_openmp_threads(argv);
+  limit_library_threads(argv);
   std::vector<int> sizes;
   HessianProjection projection = HessianProjection::ExactFirst;  // the scene default
   for (int i = 1; i < argc; ++i) {

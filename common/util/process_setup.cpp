@@ -6,10 +6,17 @@
 
 namespace pd {
 
-void limit_openmp_threads(char** argv) {
-  if (std::getenv("OMP_THREAD_LIMIT") != nullptr) return;
-  if (setenv("OMP_THREAD_LIMIT", "1", 1) != 0) return;
-  execv("/proc/self/exe", argv);  // only returns on failure
+namespace {
+// Sets `name` to "1" when it is unset; true when it was set here.
+bool set_to_one_if_unset(const char* name) {
+  return std::getenv(name) == nullptr && setenv(name, "1", 1) == 0;
+}
+}  // namespace
+
+void limit_library_threads(char** argv) {
+  const bool openmp = set_to_one_if_unset("OMP_THREAD_LIMIT");
+  const bool openblas = set_to_one_if_unset("OPENBLAS_NUM_THREADS");
+  if (openmp || openblas) execv("/proc/self/exe", argv);  // only returns on failure
 }
 
 }  // namespace pd
