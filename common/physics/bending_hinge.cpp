@@ -138,6 +138,15 @@ Mat<12> angle_hessian_of(const HingeFrame& f) {
   return 0.5 * (H + H.transpose());
 }
 
+// The bending energy and its gradient from the hinge's angle theta (and, for the gradient, its frame).
+double energy_of(double theta, const HingeRest& rest, double k) {
+  const double d = theta - rest.theta_bar;
+  return k * rest.weight * d * d;
+}
+Vec<12> gradient_of(const HingeFrame& f, double theta, const HingeRest& rest, double k) {
+  return (2.0 * k * rest.weight * (theta - rest.theta_bar)) * angle_gradient_of(f);
+}
+
 }  // namespace
 
 double dihedral_angle(const Vec<12>& x) { return angle_of(HingeFrame(x)); }
@@ -152,14 +161,12 @@ HingeRest hinge_rest(const Vec<12>& X) {
 }
 
 double hinge_bending_energy(const Vec<12>& x, const HingeRest& rest, double k) {
-  const double d = dihedral_angle(x) - rest.theta_bar;
-  return k * rest.weight * d * d;
+  return energy_of(dihedral_angle(x), rest, k);
 }
 
 Vec<12> hinge_bending_gradient(const Vec<12>& x, const HingeRest& rest, double k) {
   const HingeFrame f(x);
-  const double d = angle_of(f) - rest.theta_bar;
-  return (2.0 * k * rest.weight * d) * angle_gradient_of(f);
+  return gradient_of(f, angle_of(f), rest, k);
 }
 
 // d^2 E = 2 k w (grad theta grad theta^T + (theta - theta_bar) hess theta).
@@ -204,16 +211,28 @@ Vec<12> HingeBending::gather(const Eigen::VectorXd& x, const Hinge& h) const {
 
 // The three loops run on every element thread with thread-count-independent results
 // (physics/element_loops.h).
+// value() keeps each hinge's angle for a gradient at the same x (util/state_key.h).
 double HingeBending::value(const Eigen::VectorXd& x) const {
-  return sum_element_energies(static_cast<int>(hinges_.size()), [&](int i) {
-    return hinge_bending_energy(gather(x, hinges_[i]), rest_[i], k_);
+  angles_key_.clear();
+  angles_.resize(hinges_.size());
+  const double total = sum_element_energies(static_cast<int>(hinges_.size()), [&](int i) {
+    const double theta = angle_of(HingeFrame(gather(x, hinges_[i])));
+    angles_[static_cast<size_t>(i)] = theta;
+    return energy_of(theta, rest_[i], k_);
   });
+  angles_key_.set(x);
+  return total;
 }
 
 void HingeBending::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
+  const bool reuse = angles_key_.matches(x);
   add_element_gradients<4>(
       static_cast<int>(hinges_.size()), [&](int i) { return hinges_[i].v; },
-      [&](int i) { return hinge_bending_gradient(gather(x, hinges_[i]), rest_[i], k_); }, grad);
+      [&](int i) {
+        const HingeFrame f(gather(x, hinges_[i]));
+        return gradient_of(f, reuse ? angles_[static_cast<size_t>(i)] : angle_of(f), rest_[i], k_);
+      },
+      grad);
 }
 
 // Degenerate hinges still add their (zero) block so that the sequence of stencils, and with it the

@@ -88,6 +88,35 @@ double stress_coefficient(const Metric& m, const MembraneMaterialParams& p) {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// The element energy (J) from its metric.
+double energy_from_metric(const Metric& m, const MembraneRest& rest, const MembraneMaterialParams& p) {
+  // tr M - 2 - L, written so that no O(1) terms cancel: with s = det M - 1,
+  //   tr M - 2 - ln det M = (tr_Bda - s) + (s - log1p(s)) = -det_Bda + (s - log1p(s)).
+  // The naive form loses ~1e-16 absolute, i.e. all digits of a 1e-8 strain energy; for stiff shells
+  // (metal plates, E ~ 1e11) that noise hides the energy decrease of Newton steps and stalls the line
+  // search away from equilibrium (see the strip-cantilever test).
+  const double L = m.log_det_M;
+  const double dev = m.det_M_minus_1 > -0.5 ? -m.det_Bda + s_minus_log1p(m.det_M_minus_1)
+                                            : m.tr_Bda - L;
+  const double W = 0.5 * p.mu * dev + 0.125 * p.lambda * L * L;
+  return p.thickness * rest.area * W;
+}
+
+// The stress S (1/m^2, symmetric 2x2) from the metric, and the element gradient (N) from S and the
+// edge matrix e: d energy / d e = h A e S.
+Eigen::Matrix2d stress_from_metric(const Metric& m, const MembraneRest& rest, const MembraneMaterialParams& p) {
+  return p.mu * rest.abar_inv + stress_coefficient(m, p) * m.a_inv;
+}
+Vec<9> gradient_from_stress(const Mat32& e, const Eigen::Matrix2d& S, const MembraneRest& rest,
+                            const MembraneMaterialParams& p) {
+  const Mat32 P = (p.thickness * rest.area) * (e * S);  // d energy / d e, N
+  Vec<9> g;
+  g.segment<3>(3) = P.col(0);
+  g.segment<3>(6) = P.col(1);
+  g.segment<3>(0) = -(P.col(0) + P.col(1));
+  return g;
+}
+
 }  // namespace
 
 MembraneRest membrane_rest(const Vec3& X0, const Vec3& X1, const Vec3& X2) {
@@ -123,16 +152,7 @@ double neo_hookean_membrane_energy(const Vec<9>& x, const MembraneRest& rest,
   const Mat32 e = edge_matrix(x);
   Metric m;
   if (!deformed_metric(e, rest, m)) return std::numeric_limits<double>::infinity();
-  // tr M - 2 - L, written so that no O(1) terms cancel: with s = det M - 1,
-  //   tr M - 2 - ln det M = (tr_Bda - s) + (s - log1p(s)) = -det_Bda + (s - log1p(s)).
-  // The naive form loses ~1e-16 absolute, i.e. all digits of a 1e-8 strain energy; for stiff shells
-  // (metal plates, E ~ 1e11) that noise hides the energy decrease of Newton steps and stalls the line
-  // search away from equilibrium (see the strip-cantilever test).
-  const double L = m.log_det_M;
-  const double dev = m.det_M_minus_1 > -0.5 ? -m.det_Bda + s_minus_log1p(m.det_M_minus_1)
-                                            : m.tr_Bda - L;
-  const double W = 0.5 * p.mu * dev + 0.125 * p.lambda * L * L;
-  return p.thickness * rest.area * W;
+  return energy_from_metric(m, rest, p);
 }
 
 Vec<9> neo_hookean_membrane_gradient(const Vec<9>& x, const MembraneRest& rest,
@@ -140,13 +160,7 @@ Vec<9> neo_hookean_membrane_gradient(const Vec<9>& x, const MembraneRest& rest,
   const Mat32 e = edge_matrix(x);
   Metric m;
   if (!deformed_metric(e, rest, m)) return Vec<9>::Constant(kNaN);
-  const Eigen::Matrix2d S = p.mu * rest.abar_inv + stress_coefficient(m, p) * m.a_inv;
-  const Mat32 P = (p.thickness * rest.area) * (e * S);  // d energy / d e, N
-  Vec<9> g;
-  g.segment<3>(3) = P.col(0);
-  g.segment<3>(6) = P.col(1);
-  g.segment<3>(0) = -(P.col(0) + P.col(1));
-  return g;
+  return gradient_from_stress(e, stress_from_metric(m, rest, p), rest, p);
 }
 
 Mat<9> neo_hookean_membrane_hessian(const Vec<9>& x, const MembraneRest& rest,
@@ -205,21 +219,41 @@ Vec<9> NeoHookeanMembrane::gather(const Eigen::VectorXd& x, int face) const {
 
 // The three loops run on every element thread with thread-count-independent results
 // (physics/element_loops.h).
+// value() keeps each face's stress for a gradient at the same x (util/state_key.h); a degenerate
+// face keeps NaN, so that its gradient is NaN as neo_hookean_membrane_gradient's is.
 double NeoHookeanMembrane::value(const Eigen::VectorXd& x) const {
   check_size(x);
+  stress_key_.clear();
+  stress_.resize(faces_.size());
   // A degenerate face gives +inf, and so does the sum (energies are >= 0): the step is rejected.
-  return sum_element_energies(num_faces(), [&](int f) {
-    return neo_hookean_membrane_energy(gather(x, f), rest_[f], params_);
+  const double total = sum_element_energies(num_faces(), [&](int f) {
+    Eigen::Matrix2d& S = stress_[static_cast<size_t>(f)];
+    Metric m;
+    if (!deformed_metric(edge_matrix(gather(x, f)), rest_[f], m)) {
+      S.setConstant(kNaN);
+      return std::numeric_limits<double>::infinity();
+    }
+    S = stress_from_metric(m, rest_[f], params_);
+    return energy_from_metric(m, rest_[f], params_);
   });
+  stress_key_.set(x);
+  return total;
 }
 
 void NeoHookeanMembrane::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
   check_size(x);
   if (grad.size() != x.size())
     throw std::invalid_argument("NeoHookeanMembrane::add_gradient: grad and x differ in size");
+  const bool reuse = stress_key_.matches(x);
   add_element_gradients<3>(
       num_faces(), [&](int f) { return faces_[f]; },
-      [&](int f) { return neo_hookean_membrane_gradient(gather(x, f), rest_[f], params_); }, grad);
+      [&](int f) -> Vec<9> {
+        if (!reuse) return neo_hookean_membrane_gradient(gather(x, f), rest_[f], params_);
+        const Eigen::Matrix2d& S = stress_[static_cast<size_t>(f)];
+        if (std::isnan(S(0, 0))) return Vec<9>::Constant(kNaN);
+        return gradient_from_stress(edge_matrix(gather(x, f)), S, rest_[f], params_);
+      },
+      grad);
 }
 
 void NeoHookeanMembrane::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,

@@ -39,6 +39,7 @@
 
 #include "geometry/mesh.h"
 #include "physics/energy_term.h"
+#include "util/state_key.h"
 
 namespace pd {
 
@@ -103,6 +104,10 @@ class NeoHookeanMembrane : public EnergyTerm {
   std::vector<MembraneRest> rest_;
   MembraneMaterialParams params_;
   int min_dofs_ = 0;  // 3 * (largest vertex index + 1): x must be at least this long
+  // Each face's stress S (1/m^2) at value()'s last x, reused by add_gradient at the same x
+  // (util/state_key.h); NaN for a degenerate face.
+  mutable std::vector<Eigen::Matrix2d> stress_;
+  mutable StateKey stress_key_;
 };
 
 }  // namespace pd

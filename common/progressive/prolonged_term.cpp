@@ -1,7 +1,6 @@
 #include "progressive/prolonged_term.h"
 
 #include <algorithm>
-#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <utility>
@@ -34,32 +33,23 @@ bool ProlongationState::refresh(const Eigen::VectorXd& x) {
   }
 }
 
-namespace {
-// Exact equality of two states (the cache key): the terms of one iterate pass the same vector.
-bool same_state(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
-  return a.size() == b.size() && (a.size() == 0 || std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0);
-}
-}  // namespace
-
 Eigen::VectorXd ProlongationState::fine_positions(const Eigen::VectorXd& x) const {
   if (mode_ == ProlongedGradient::Frozen) return stacked(P_->apply_frozen(as_rows(x), offsets_));
-  if (!cached_y_valid_ || !same_state(x, cached_x_)) {
-    cached_y_valid_ = false;  // stays false if apply() throws
+  if (!y_key_.matches(x)) {
+    y_key_.clear();  // stays clear if apply() throws
     cached_y_ = stacked(P_->apply(as_rows(x)));
-    cached_x_ = x;
-    cached_y_valid_ = true;
+    y_key_.set(x);
   }
   return cached_y_;
 }
 
 const Eigen::SparseMatrix<double>& ProlongationState::jacobian(const Eigen::VectorXd& x) const {
   if (mode_ == ProlongedGradient::Frozen) return P_->U_stacked();
-  if (!jacobian_valid_ || !same_state(x, jacobian_x_)) {
-    jacobian_valid_ = false;
+  if (!jacobian_key_.matches(x)) {
+    jacobian_key_.clear();
     if (jacobian_.first.empty()) jacobian_ = P_->jacobian_plan();
     P_->jacobian(as_rows(x), jacobian_);
-    jacobian_x_ = x;
-    jacobian_valid_ = true;
+    jacobian_key_.set(x);
   }
   return jacobian_.J;
 }

@@ -63,6 +63,7 @@
 #include "hierarchy/shell_prolongation.h"
 #include "physics/energy_term.h"
 #include "progressive/galerkin_product.h"
+#include "util/state_key.h"
 
 namespace pd {
 
@@ -108,11 +109,10 @@ class ProlongationState {
   ProlongedGradient mode_;
   Positions offsets_;  // frozen A, (n_fine, 3) m
   // Exact mode's cache: the state last asked about, its P(x) and J(x) (J computed on first use).
-  mutable Eigen::VectorXd cached_x_, cached_y_;
-  mutable bool cached_y_valid_ = false;
-  mutable Eigen::VectorXd jacobian_x_;
+  mutable Eigen::VectorXd cached_y_;
+  mutable StateKey y_key_;
   mutable ShellProlongation::JacobianPlan jacobian_;  // J's pattern made once, values per state
-  mutable bool jacobian_valid_ = false;
+  mutable StateKey jacobian_key_;
 };
 
 enum class ProlongedHessian {

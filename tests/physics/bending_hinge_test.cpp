@@ -251,6 +251,20 @@ TEST(HingeBending, ZeroEnergyAndGradientAtCurvedRestShape) {
   EXPECT_GT(term.value(flat), 0.0);
 }
 
+// value() keeps each hinge's angle for the gradient at the same x.
+TEST(HingeBending, GradientAfterValueEqualsTheGradientOfATermThatNeverEvaluatedAValue) {
+  TriMesh m = grid(3, 3, 0.5, 0.5);
+  for (int i = 0; i < m.num_vertices(); ++i) m.V(i, 2) = 0.3 * m.V(i, 0) * m.V(i, 0) - 0.2 * m.V(i, 1);
+  const std::vector<Hinge> hinges = hinges_of(m.F);
+  const HingeBending term(hinges, m.V, 0.05), twin(hinges, m.V, 0.05);
+  Eigen::VectorXd x = stacked(m.V), y = x;
+  for (Eigen::Index i = 2; i < x.size(); i += 3) {
+    x[i] += 0.1 * std::sin(5.0 * x[i - 2]);
+    y[i] -= 0.2 * std::cos(3.0 * y[i - 1]);
+  }
+  test::expect_gradient_after_value_is_a_fresh_gradient(term, twin, x, y);
+}
+
 TEST(HingeBending, TermAssemblyMatchesElementSumsAndFiniteDifferences) {
   TriMesh m = grid(2, 2, 0.5, 0.5);  // 2 x 2 quads, 8 triangles, 8 interior edges
   for (int i = 0; i < m.num_vertices(); ++i) m.V(i, 2) = 0.3 * m.V(i, 0) * m.V(i, 0) - 0.2 * m.V(i, 1);

@@ -284,6 +284,22 @@ TEST(NeoHookeanMembrane, AssembledTermGradientAndHessianMatchFiniteDifferences) 
   EXPECT_LT((acc - Eigen::VectorXd::Ones(x.size()) - grad).norm(), 1e-14 * grad.norm());
 }
 
+// value() keeps each face's stress for the gradient at the same x; a stretched state and one with
+// two collapsed faces (whose gradient entries are NaN either way).
+TEST(NeoHookeanMembrane, GradientAfterValueEqualsTheGradientOfATermThatNeverEvaluatedAValue) {
+  const SmallMesh mesh;
+  const NeoHookeanMembrane term(mesh.faces, mesh.rest, kCloth), twin(mesh.faces, mesh.rest, kCloth);
+  std::mt19937 rng(22);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  Eigen::VectorXd x = stacked(mesh.rest);
+  for (Eigen::Index i = 3; i < x.size(); ++i) x[i] += u(rng);
+  Eigen::VectorXd collapsed = x;
+  collapsed.segment<3>(3 * 3) = collapsed.segment<3>(3 * 1);  // faces 0 and 1
+  ASSERT_TRUE(test::term_gradient(twin, collapsed).hasNaN());
+  test::expect_gradient_after_value_is_a_fresh_gradient(term, twin, x, collapsed);
+  test::expect_gradient_after_value_is_a_fresh_gradient(term, twin, x, 1.1 * x);
+}
+
 TEST(NeoHookeanMembrane, AssembledProjectedHessianIsPsdUnderCompression) {
   const SmallMesh mesh;
   const NeoHookeanMembrane term(mesh.faces, mesh.rest, kCloth);

@@ -65,6 +65,21 @@ TermBits term_bits(const EnergyTerm& term, const Eigen::VectorXd& x, HessianProj
   return bits;
 }
 
+void expect_gradient_after_value_is_a_fresh_gradient(const EnergyTerm& term, const EnergyTerm& twin,
+                                                     const Eigen::VectorXd& x, const Eigen::VectorXd& y) {
+  const Eigen::VectorXd fresh_x = term_gradient(twin, x), fresh_y = term_gradient(twin, y);
+  auto same = [](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())) == 0;
+  };
+  ASSERT_FALSE(same(fresh_x, fresh_y)) << "x and y need different gradients";
+  for (const Eigen::VectorXd* at : {&x, &y}) {
+    term.value(*at);
+    EXPECT_TRUE(same(term_gradient(term, x), fresh_x)) << "gradient at x after value at " << (at == &x ? "x" : "y");
+    term.value(*at);
+    EXPECT_TRUE(same(term_gradient(term, y), fresh_y)) << "gradient at y after value at " << (at == &x ? "x" : "y");
+  }
+}
+
 long expect_same_bits(const TermBits& a, const TermBits& b) {
   long compared = 0;
   auto same = [&](const double* u, const double* v, size_t n, const char* what) {

@@ -186,7 +186,7 @@ void BarrierPotential::set_thin_pairs(CandidatePairs pairs) {
     list->erase(std::unique(list->begin(), list->end()), list->end());
   }
   thin_ = std::move(pairs);
-  active_valid_ = false;  // the pairs' offsets changed
+  active_key_.clear();  // the pairs' offsets changed
 }
 
 double BarrierPotential::pair_offset(int kind, const std::array<int, 2>& pair) const {
@@ -212,7 +212,7 @@ CandidatePairs BarrierPotential::pairs_within_offset(const Eigen::VectorXd& x) c
 }
 
 const std::vector<BarrierPotential::ActivePair>& BarrierPotential::active_pairs(const Eigen::VectorXd& x) const {
-  if (active_valid_ && cached_active_x_.size() == x.size() && cached_active_x_ == x) return cached_active_;
+  if (active_key_.matches(x)) return cached_active_;
   const CandidatePairs& pairs = candidates(x);
   const double active_d2 = barrier_active_squared_distance(settings_.dhat, settings_.offset);
   const double thin_active_d2 = barrier_active_squared_distance(settings_.dhat + settings_.offset, 0.0);
@@ -252,15 +252,14 @@ const std::vector<BarrierPotential::ActivePair>& BarrierPotential::active_pairs(
   std::vector<int> index;
   for (int i = 0; i < num_candidates; ++i)
     if (active[static_cast<size_t>(i)]) index.push_back(i);
-  active_valid_ = false;  // until refilled: an exception below must not leave a half-built cache
+  active_key_.clear();  // until refilled: an exception below must not leave a half-built cache
   cached_active_.resize(index.size());
   parallel_for_index(static_cast<int>(index.size()), [&](int j) {
     ActivePair& p = cached_active_[static_cast<size_t>(j)];
     make_pair(index[static_cast<size_t>(j)], p);
     p.d2 = d2[static_cast<size_t>(index[static_cast<size_t>(j)])];
   });
-  cached_active_x_ = x;
-  active_valid_ = true;
+  active_key_.set(x);
   return cached_active_;
 }
 

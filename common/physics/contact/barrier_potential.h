@@ -16,6 +16,7 @@
 #include "physics/contact/broad_phase.h"
 #include "physics/contact/friction_contact.h"
 #include "physics/energy_term.h"
+#include "util/state_key.h"
 
 namespace pd {
 
@@ -121,9 +122,8 @@ class BarrierPotential : public EnergyTerm, public FrictionSource {
   ContactPrimitives primitives_;
   mutable Eigen::VectorXd cached_x_;
   mutable CandidatePairs cached_pairs_;
-  mutable Eigen::VectorXd cached_active_x_;  // active_pairs' cache (the x it was computed at)
-  mutable std::vector<ActivePair> cached_active_;
-  mutable bool active_valid_ = false;
+  mutable std::vector<ActivePair> cached_active_;  // active_pairs' cache, for the x in active_key_
+  mutable StateKey active_key_;
   std::vector<double> edge_rest_length2_;  // |e_rest|^2 per edge, for the mollifier threshold
   ContactSettings settings_;
   Eigen::MatrixXd friction_mu_;  // (#objects, #objects) or empty (no friction)
