@@ -88,6 +88,13 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
     return;
   }
   if (mode_ == ProlongedHessian::CoarseFirst && assemblies_in_step_++ < kCoarseFirstAssemblies) {
+    // The union pattern needs the Galerkin blocks' pattern from the term's first assembly on, not
+    // from its first lagged phase: a run continued from stored frames (a new term) must assemble the
+    // same pattern as the run it continues, or CHOLMOD orders another matrix and the frames differ
+    // in the last bits. The pattern does not depend on x; the values are never used (computed_at
+    // stays -1, so the step's first lagged assembly computes its own).
+    if (lagged_[last_lagged_].product.blocks().empty())
+      compute_galerkin_blocks(x, projection, lagged_[last_lagged_].product);
     compute_coarse_blocks(x, projection);
     add_blocks(coarse_blocks_, lagged_[last_lagged_].product.blocks(), hessian);
     return;

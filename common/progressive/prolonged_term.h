@@ -45,7 +45,8 @@
 //             Lagged for the rest of that step: cheap iterates where the stand-in is good enough, the
 //             Galerkin Hessian where it stalls (the pressurised ball, the cloth winding on a sphere).
 //             Both phases assemble the union of their block patterns (zeros where a phase has no
-//             block), so switching does not re-analyse the coarse matrix.
+//             block) from the term's first assembly on, so switching does not re-analyse the coarse
+//             matrix and a run continued from stored frames assembles the same matrices.
 //
 // Velocities prolong with the Jacobian at the start state (begin_step gives the fine term P(x), J v;
 // frozen: U x + A, U v): the velocity of the prolonged shape.
