@@ -8,14 +8,14 @@
 // objects, as `pd compare`). Per scene: preview speed-up over direct finest (direct finest s/step
 // over preview s/step; the paper reports 21x-75x on its scenes), preview overhead over direct
 // coarsest (preview s/step over direct coarsest s/step; the paper: about 2x), and the coarsest-vs-
-// finest deviation of both kinds of run with their ratio. With the default lagged Hessian the
-// preview is also run with the exact Galerkin Hessian, for its cost and its deviation.
+// finest deviation of both kinds of run with their ratio. Unless the preview's Hessian is already
+// Galerkin's, the preview is also run with the exact Galerkin Hessian, for its cost and its deviation.
 //
 //   pd_bench_progressive                                   # the six progressive scenes of scenes/
 //   pd_bench_progressive scenes/flag.json --frames 100     # given scenes, fewer frames
 //   pd_bench_progressive bench/scenes/flag-large.json      # 16x finer variants (bench/scenes/)
 //   --levels N      override every scene's hierarchy.levels
-//   --hessian galerkin|lagged|coarse
+//   --hessian auto|galerkin|lagged|coarse|coarse-first
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -92,7 +92,7 @@ int main(int argc, char** argv) {
     } else if (a == "--levels" && i + 1 < argc) {
       levels = std::atoi(argv[++i]);
     } else if (a == "--hessian" && i + 1 < argc) {
-      options.system.hessian = parse_prolonged_hessian(argv[++i]);
+      options.system.hessian = parse_level_hessian(argv[++i]);
     } else {
       files.push_back(a);
     }
@@ -121,10 +121,11 @@ int main(int argc, char** argv) {
                   r.vertices, r.seconds / scene.frames, double(r.newton) / scene.frames, r.unconverged);
       std::fflush(stdout);
     }
-    // The same preview with the exact Galerkin Hessian at every iterate, to measure what lagging it
-    // saves and changes (only when the run above lagged it).
+    // The same preview with the exact Galerkin Hessian at every iterate, to measure what the run's
+    // cheaper preview Hessian saves and changes (only when the run above used another one).
     LevelRun galerkin_preview;
-    const bool compare_hessians = options.system.hessian == ProlongedHessian::Lagged;
+    const bool compare_hessians =
+        options.system.hessian.value_or(auto_prolonged_hessian(0)) != ProlongedHessian::Galerkin;
     if (compare_hessians) {
       LevelTaskOptions exact = options;
       exact.system.hessian = ProlongedHessian::Galerkin;

@@ -20,7 +20,8 @@ struct SimulateArgs {
   int level = -1;           // direct: the hierarchy level to simulate (0 = coarsest)
   int levels = -1;          // override of the scene's hierarchy.levels
   bool preview_only = false;  // progressive: stop after level 0
-  // progressive: "galerkin", "lagged", "coarse" or "coarse-first" (progressive/prolonged_term.h); empty: not given (lagged)
+  // progressive: "auto", "galerkin", "lagged", "coarse" or "coarse-first" (progressive/level_system.h);
+  // empty: not given (auto)
   std::string hessian;
   bool force = false;  // replace an existing `out` that is not a frame file
   // Steps that stop before convergence make pd simulate exit 3 (frames kept); with this, 0 and a
@@ -81,7 +82,7 @@ struct SubmitArgs {
   int priority = 0;        // higher runs first
   int frames = 0;
   int preview_chunk = 0;   // frames per preview task
-  std::string hessian = "lagged";
+  std::string hessian = "auto";
   bool json = false;       // print {"job": ID} instead of the bare id
 };
 int submit(const SubmitArgs& args);
@@ -138,7 +139,7 @@ struct RunArgs {
   bool preview_only = false;
   int levels = 0;
   int frames = 0;
-  std::string hessian = "lagged";
+  std::string hessian = "auto";
   std::string keep_farm;   // farm folder to use and keep; empty: a temporary one, removed at the end
   int threads = 0;         // element-loop threads per worker; 0: this machine's cores / workers (>= 1)
 };

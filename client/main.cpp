@@ -51,7 +51,7 @@ CLI::Validator frame_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxF
 CLI::Validator level_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxLevels); }
 CLI::Validator level_index() { return pd::cli::decimal_integer(0, pd::cli::kMaxLevels - 1); }
 CLI::Validator positive_seconds() { return pd::cli::decimal_real(0.0, true, 1e9, "seconds, > 0 and <= 1e9"); }
-CLI::Validator hessian_kind() { return pd::cli::one_of({"galerkin", "lagged", "coarse", "coarse-first"}); }
+CLI::Validator hessian_kind() { return pd::cli::one_of({"auto", "galerkin", "lagged", "coarse", "coarse-first"}); }
 
 // Ends the process after an error without the exit handlers: after a failed HDF5 write (disk full,
 // file size limit) the frame file stays half-closed inside the HDF5 library, whose own exit handler
@@ -208,7 +208,8 @@ int main(int argc, char** argv) {
       ->transform(level_count());
   simulate->add_flag("--preview-only", sim.preview_only, "progressive only: stop after the preview (level 0)");
   simulate->add_option("--hessian", sim.hessian,
-                       "progressive only: Hessian of the prolonged elasticity (default lagged)")
+                       "progressive only: Hessian of the prolonged elasticity (default auto: coarse-first for the preview, "
+                       "lagged for the levels between)")
       ->transform(hessian_kind());
   simulate->add_option("--threads", sim.threads,
                        "Threads for the element loops (energies, Hessians, contact pairs; default: every core); "

@@ -65,7 +65,7 @@ int simulate_levels(const SimulateArgs& args, Scene scene, const std::string& ou
   opt.out_path = out_path;
   opt.frames = args.frames;
   opt.task.system.direct = args.mode == "direct";
-  opt.task.system.hessian = parse_prolonged_hessian(args.hessian.empty() ? "lagged" : args.hessian);
+  opt.task.system.hessian = parse_level_hessian(args.hessian.empty() ? "auto" : args.hessian);
   opt.direct_level = args.level;
   if (args.preview_only) opt.last_level = 0;
   const int frames = args.frames >= 1 ? args.frames : scene.frames;

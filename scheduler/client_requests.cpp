@@ -6,7 +6,7 @@
 #include "farm/messaging.h"
 #include "farm/scene_source.h"
 #include "farm/task_graph.h"
-#include "progressive/prolonged_term.h"
+#include "progressive/level_system.h"
 #include "scheduler/scheduler.h"
 #include "util/input_error.h"
 
@@ -44,7 +44,7 @@ protocol::Reply Scheduler::serve(protocol::SubmitJob& m) {
   try {
     std::filesystem::remove_all(scratch);
     scene = farm::scene_from_source(m.scene, scratch);
-    parse_prolonged_hessian(m.hessian);
+    parse_level_hessian(m.hessian);
   } catch (const std::exception& e) {
     return error(e.what());
   }

@@ -16,7 +16,6 @@
 #include "progressive/frame_stats.h"
 #include "progressive/level_system.h"
 #include "progressive/level_task.h"
-#include "progressive/prolonged_term.h"
 #include "hierarchy/safe_upsampling.h"
 #include "store/hierarchy_store.h"
 
@@ -207,7 +206,7 @@ protocol::Parts TaskRunner::run_hierarchy(const protocol::AssignTask& task) {
   // Every level must start admissibly (a coarse level can overlap where the finest does not), as
   // pd simulate checks before it writes anything: the job fails here with the same message.
   LevelSystemOptions system;
-  system.hessian = parse_prolonged_hessian(task.hessian);
+  system.hessian = parse_level_hessian(task.hessian);
   for (int l = 0; l < h->num_levels(); ++l) {
     try {
       check_start_state(scene_at_level(scene, *h, l), build_level_system(scene, *h, l, system));
@@ -263,7 +262,7 @@ void TaskRunner::run_level(const protocol::AssignTask& task) {
     inputs.own_kappa = task.own_kappa;
   }
   LevelTaskOptions options;
-  options.system.hessian = parse_prolonged_hessian(task.hessian);
+  options.system.hessian = parse_level_hessian(task.hessian);
   const auto sink = [&](const FrameRecord& r) {
     protocol::FrameReport report;
     report.attempt = task.attempt;

@@ -61,6 +61,20 @@ Eigen::VectorXd build_initial_positions(const Scene& scene) {
 
 }  // namespace
 
+ProlongedHessian auto_prolonged_hessian(int level) {
+  return level == 0 ? ProlongedHessian::CoarseFirst : ProlongedHessian::Lagged;
+}
+
+std::optional<ProlongedHessian> parse_level_hessian(const std::string& name) {
+  if (name == "auto") return std::nullopt;
+  try {
+    return parse_prolonged_hessian(name);
+  } catch (const std::invalid_argument&) {
+    throw std::invalid_argument("unknown prolonged Hessian '" + name +
+                                "': use auto, galerkin, lagged, coarse or coarse-first");
+  }
+}
+
 SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarchy, int level,
                                const LevelSystemOptions& options) {
   const Scene at_level = scene_at_level(scene, hierarchy, level);
@@ -70,6 +84,7 @@ SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarc
   const Eigen::VectorXd finest_initial = build_initial_positions(scene);
   const SceneLevel& lv = hierarchy.levels[static_cast<std::size_t>(level)];
   const SceneLevel& finest = hierarchy.levels.back();
+  const ProlongedHessian hessian = options.hessian.value_or(auto_prolonged_hessian(level));
   sys.prolongation = std::make_shared<ProlongationState>(*lv.to_finest_prolongation, stacked(lv.rest.V), options.gradient);
   for (std::size_t o = 0; o < scene.objects.size(); ++o) {
     const SceneObject& obj = scene.objects[o];
@@ -79,14 +94,14 @@ SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarc
     Faces fine_faces = obj.rest.F;
     fine_faces.array() += fine_offset;
     add_shell_forces(obj, fine_faces, fine_offset, finest.rest.V, finest_initial, fine_terms);
-    if (options.hessian == ProlongedHessian::Coarse || options.hessian == ProlongedHessian::CoarseFirst) {
+    if (hessian == ProlongedHessian::Coarse || hessian == ProlongedHessian::CoarseFirst) {
       const SceneObject& coarse_obj = at_level.objects[o];
       Faces coarse_faces = coarse_obj.rest.F;
       coarse_faces.array() += coarse_offset;
       add_shell_forces(coarse_obj, coarse_faces, coarse_offset, lv.rest.V, sys.x0, coarse_terms);
     }
     for (std::size_t k = 0; k < fine_terms.size(); ++k)
-      sys.ip.add_term(std::make_unique<ProlongedTerm>(std::move(fine_terms[k]), sys.prolongation, options.hessian,
+      sys.ip.add_term(std::make_unique<ProlongedTerm>(std::move(fine_terms[k]), sys.prolongation, hessian,
                                                       k < coarse_terms.size() ? std::move(coarse_terms[k]) : nullptr));
   }
   return sys;

@@ -17,6 +17,8 @@
 // Conventions: level 0 = coarsest, L = hierarchy.finest(); global vertex ids of the level (objects
 // stacked as in SceneLevel); stacked vectors x[3i + k] (m).
 #include <memory>
+#include <optional>
+#include <string>
 
 #include "hierarchy/scene_hierarchy.h"
 #include "progressive/prolonged_term.h"
@@ -32,8 +34,20 @@ namespace pd {
 // std::invalid_argument for a level outside [0, L], or a pinned vertex missing from the level.
 Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int level);
 
+// The prolonged Hessian of level `level` when a run names none ("auto", the default): coarse-first
+// for the preview (level 0), lagged for the levels between it and the finest. Measured per level
+// (docs/performance.md, issue 16): coarse-first previews took 0.52-0.83x lagged's time on 7 of 8
+// scenes (ball-drop 1.07x), but coarse-first on every level made cube-trampoline's level 1 2.8x
+// slower and ball-drop's whole run 1.3x.
+ProlongedHessian auto_prolonged_hessian(int level);
+
+// "auto" (nullopt: auto_prolonged_hessian per level) or a name parse_prolonged_hessian accepts, for
+// every coarse level; throws std::invalid_argument naming the accepted words for anything else.
+std::optional<ProlongedHessian> parse_level_hessian(const std::string& name);
+
 struct LevelSystemOptions {
-  ProlongedHessian hessian = ProlongedHessian::Lagged;  // coarse levels only (see prolonged_term.h)
+  // coarse levels only (see prolonged_term.h); nullopt: auto_prolonged_hessian(level)
+  std::optional<ProlongedHessian> hessian;
   // Exact (the default) or PSQ's frozen offsets; library-only, for measuring the difference.
   ProlongedGradient gradient = ProlongedGradient::Exact;
   // Direct simulation of the level (PD eq. 3): its own mesh's elasticity instead of the finest

@@ -38,7 +38,8 @@ namespace pd::protocol {
 // 3: Hello.slurm_job, Goodbye, AddSlurmWorkers / RemoveSlurmWorkers / SlurmAccepted, WorkersReply's
 //    Slurm part.
 // 4: TaskFailed.failure (FailureKind), TaskStatus.horizontal.
-constexpr int kProtocolVersion = 4;
+// 5: the prolonged Hessian name "auto" (SubmitJob's default; AssignTask.hessian may carry it).
+constexpr int kProtocolVersion = 5;
 
 // Upper bound on a whole message (all parts), bytes; larger messages are refused when decoded (and
 // sockets set ZMQ_MAXMSGSIZE to it). 1 GiB: a job file fetched in one reply must fit.
@@ -140,7 +141,7 @@ struct AssignTask {
   int start = 0;
   int frames = 0;  // the job's frame count N (overrides the scene's)
   int levels = 0;  // the job's hierarchy level count (overrides the scene's hierarchy.levels)
-  std::string hessian;  // prolonged Hessian name ("lagged", "galerkin", "coarse", "coarse-first")
+  std::string hessian;  // prolonged Hessian name ("auto", "lagged", "galerkin", "coarse", "coarse-first")
   SceneSource scene;
   std::string hierarchy_hash;  // kind == level: the hierarchy the task runs on
   // kind == level: the hierarchy file's bytes when the scheduler has not sent this hash to this
@@ -264,7 +265,7 @@ struct SubmitJob {
   int priority = 0;    // higher runs first
   int frames = 0;      // 0: the scene's frame count
   int preview_chunk = 0;  // frames per preview (level 0) task; 0: the scheduler's default
-  std::string hessian = "lagged";
+  std::string hessian = "auto";  // progressive/level_system.h: parse_level_hessian
 };
 
 // Add the refinement levels to a preview-only job (running or done).

@@ -7,6 +7,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
+#include <stdexcept>
+#include <string>
 
 #include "geometry/shapes.h"
 #include "progressive/test_scenes.h"
@@ -97,6 +100,55 @@ TEST(LevelSystem, CoarsePreviewReportsTheFinestLevelsEnergiesAndStartsWithoutGho
       }
     }
     EXPECT_TRUE(membrane && bending);
+  }
+}
+
+// "auto" (no Hessian named) is coarse-first on the preview and lagged on the levels between: the
+// first assembly of a step gives, bit for bit, the matrix of the mode named explicitly, and the two
+// modes' matrices differ there (so the comparison can tell them apart).
+TEST(LevelSystem, AutoHessianIsCoarseFirstForThePreviewAndLaggedForTheLevelsBetween) {
+  Scene scene = hanging_sheet(1);
+  scene.hierarchy.levels = 3;
+  const SceneHierarchy h = build_scene_hierarchy(scene);
+  ASSERT_EQ(h.finest(), 2);
+  // The first assembly of a step at a bent state (the rest state's Hessians are too alike).
+  auto first_assembly = [&](int level, std::optional<ProlongedHessian> mode) {
+    LevelSystemOptions options;
+    options.hessian = mode;
+    SceneSystem sys = build_level_system(scene, h, level, options);
+    Eigen::VectorXd x = sys.x0;
+    for (Eigen::Index i = 0; i < x.size(); i += 3) x[i + 2] += 0.05 * std::sin(7.0 * x[i]) * x[i + 1];
+    StepStart start;
+    start.h = scene.time_step;
+    start.time_end = scene.time_step;
+    start.x = &sys.x0;
+    start.v = &sys.v0;
+    sys.ip.begin_step(start);
+    HessianAssembly H;
+    sys.ip.hessian(x, HessianProjection::Clamp, H);
+    return Eigen::MatrixXd(H.finish(nullptr));
+  };
+  EXPECT_EQ(auto_prolonged_hessian(0), ProlongedHessian::CoarseFirst);
+  EXPECT_EQ(auto_prolonged_hessian(1), ProlongedHessian::Lagged);
+  for (int level : {0, 1}) {
+    const Eigen::MatrixXd automatic = first_assembly(level, std::nullopt);
+    const Eigen::MatrixXd coarse_first = first_assembly(level, ProlongedHessian::CoarseFirst);
+    const Eigen::MatrixXd lagged = first_assembly(level, ProlongedHessian::Lagged);
+    EXPECT_GT((coarse_first - lagged).norm(), 1e-6 * lagged.norm()) << "level " << level;
+    EXPECT_EQ(automatic, level == 0 ? coarse_first : lagged) << "level " << level;
+  }
+}
+
+TEST(LevelSystem, LevelHessianNamesAreAutoOrAProlongedHessianAndAnythingElseIsRefusedNamingTheWords) {
+  EXPECT_EQ(parse_level_hessian("auto"), std::nullopt);
+  EXPECT_EQ(parse_level_hessian("lagged"), ProlongedHessian::Lagged);
+  EXPECT_EQ(parse_level_hessian("coarse-first"), ProlongedHessian::CoarseFirst);
+  try {
+    parse_level_hessian("Auto");
+    ADD_FAILURE() << "\"Auto\" was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'Auto': use auto, galerkin, lagged, coarse or coarse-first"), std::string::npos)
+        << e.what();
   }
 }
 

@@ -51,7 +51,7 @@ TEST(ProtocolRequests, SubmitJobRoundTripsEveryField) {
   EXPECT_EQ(b.preview_chunk, m.preview_chunk);
   EXPECT_EQ(b.hessian, m.hessian);
   const SubmitJob d = round_trip(SubmitJob{});
-  EXPECT_EQ(d.hessian, "lagged");
+  EXPECT_EQ(d.hessian, "auto");
   EXPECT_TRUE(d.scene.files.empty());
   EXPECT_FALSE(d.preview_only);
 }
