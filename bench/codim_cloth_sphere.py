@@ -1,0 +1,92 @@
+#!/usr/bin/python3
+"""Our direct step against Codim-IPC's on its FEMShell cloth-on-sphere scene (issue 16).
+
+Codim-IPC (the C-IPC paper's code, GitHub ipc-sim/Codim-IPC) is not built here: build it apart and
+point this script at its meshes (Projects/FEMShell/input/). The scene is its test 6
+(6_cloth_on_rotating_sphere.py) with the 3 249-vertex cloth square57.obj: a 1 m cotton square 8.2 mm
+above the fixed 1 239-vertex sphere1K_0.3.obj (centred at the origin, y up), a fixed 21 x 21 floor
+square21.obj 0.16 m below the centre, dhat 1e-3 m, contact offset 0, friction 0.4 against the sphere
+and the floor and 0.1 cloth on cloth, eps_v 1e-3 m/s, strain limit 1.0608, 20 steps. The sphere's
+spin starts at t = 1 s, after the 20 steps, so it is a fixed obstacle here.
+
+Material, matched term by term (Codim-IPC's MEMBRANE.h and its hinge):
+  membrane: the same compressible neo-Hookean energy of the first fundamental form, E = 8 210 Pa
+    (0.821 MPa x membEMult 0.01), nu = 0.243, t = 0.318 mm, rho = 472.64 kg/m^3;
+  bending: Codim-IPC's hinge energy is 3 k |e|^2 / (A1 + A2) (theta - theta_bar)^2 with
+    k = E_b t^3 / (24 (1 - nu^2)), E_b = 82 100 Pa; ours is (D / 2) |e|^2 / (A1 + A2) (...)^2 with
+    D = E_b' t^3 / (12 (1 - nu^2)), so the same energy needs E_b' = 3 E_b = 246 300 Pa.
+
+Prints per run (with and without friction): Newton iterations per step and solve seconds per step
+(frame statistics), on one thread. Pause other processes for the seconds to mean anything.
+
+Usage: bench/codim_cloth_sphere.py BUILD_DIR OUT_DIR CODIM_MESH_DIR [--steps N] [--time-step H]
+"""
+import argparse
+import json
+import os
+import subprocess
+
+import numpy as np
+
+import scene_variants
+
+MESHES = {"cloth": "square57.obj", "sphere": "sphere1K_0.3.obj", "floor": "square21.obj"}
+
+
+def scene(steps, h, friction):
+    pairs = [{"objects": ["cloth", "sphere"], "friction": friction},
+             {"objects": ["cloth", "floor"], "friction": friction},
+             {"objects": ["cloth", "cloth"], "friction": 0.25 * friction}]
+    return {
+        "format_version": 1,
+        "name": "codim-cloth-sphere",
+        "description": "Codim-IPC's FEMShell cloth on sphere (test 6, square57), see bench/codim_cloth_sphere.py",
+        "time_step": h,
+        "frames": steps,
+        "contact": {"dhat": 1e-3, "offset": 0.0, "eps_v": 1e-3, "friction": 0.0, "pair_friction": pairs},
+        "objects": [
+            {"name": "cloth", "mesh": {"type": "obj", "path": MESHES["cloth"]},
+             "transform": {"translation": [0, 0.16, 0]},
+             "material": {"density": 472.641509, "youngs_modulus": 8210.0, "poisson_ratio": 0.243,
+                          "thickness": 0.318e-3, "bending_youngs_modulus": 246300.0},
+             "self_contact": True, "strain_limit": {"limit": 1.0608}},
+            {"name": "sphere", "mesh": {"type": "obj", "path": MESHES["sphere"]}, "obstacle": True},
+            {"name": "floor", "mesh": {"type": "obj", "path": MESHES["floor"]},
+             "transform": {"translation": [0, -0.16, 0]}, "obstacle": True},
+        ],
+    }
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("build")
+    ap.add_argument("out")
+    ap.add_argument("meshes", help="Codim-IPC's Projects/FEMShell/input (or a copy of its three OBJ files)")
+    ap.add_argument("--steps", type=int, default=20)
+    ap.add_argument("--time-step", type=float, default=0.01)
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    for name in MESHES.values():  # the scene's paths are relative to its folder
+        link = os.path.join(a.out, name)
+        if os.path.lexists(link):
+            os.remove(link)
+        os.symlink(os.path.abspath(os.path.join(a.meshes, name)), link)
+    pd = os.path.join(a.build, "client", "pd")
+    print(f"| friction | steps | h (s) | Newton its/step | solve s/step | s per iteration | unconverged |")
+    print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for friction in (0.4, 0.0):
+        path = os.path.join(a.out, f"codim-cloth-sphere-mu{friction}.json")
+        with open(path, "w") as f:
+            json.dump(scene(a.steps, a.time_step, friction), f, indent=1)
+        out = os.path.join(a.out, f"codim-cloth-sphere-mu{friction}.h5")
+        subprocess.run([pd, "simulate", path, "--mode", "direct", "--threads", "1", "--out", out, "--force",
+                        "--quiet", "--allow-unconverged"], check=True)
+        r = scene_variants.read_levels(out)
+        r = r[max(r)]
+        its, secs = float(np.mean(r["iterations"])), float(np.mean(r["seconds"]))
+        print(f"| {friction} | {len(r['iterations'])} | {a.time_step} | {its:.1f} | {secs:.3f} | {secs / its:.3f} "
+              f"| {r['unconverged']} |")
+
+
+if __name__ == "__main__":
+    main()
