@@ -13,6 +13,7 @@
 #include "commands.h"
 #include "plan_command.h"
 #include "progressive/level_stepper.h"
+#include "progressive/level_system.h"
 #include "util/input_error.h"
 #include "util/process_setup.h"
 
@@ -51,7 +52,7 @@ CLI::Validator frame_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxF
 CLI::Validator level_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxLevels); }
 CLI::Validator level_index() { return pd::cli::decimal_integer(0, pd::cli::kMaxLevels - 1); }
 CLI::Validator positive_seconds() { return pd::cli::decimal_real(0.0, true, 1e9, "seconds, > 0 and <= 1e9"); }
-CLI::Validator hessian_kind() { return pd::cli::one_of({"auto", "galerkin", "lagged", "coarse", "coarse-first"}); }
+CLI::Validator hessian_kind() { return pd::cli::one_of(pd::level_hessian_names()); }
 
 // Ends the process after an error without the exit handlers: after a failed HDF5 write (disk full,
 // file size limit) the frame file stays half-closed inside the HDF5 library, whose own exit handler

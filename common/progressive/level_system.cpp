@@ -65,13 +65,21 @@ ProlongedHessian auto_prolonged_hessian(int level) {
   return level == 0 ? ProlongedHessian::CoarseFirst : ProlongedHessian::Lagged;
 }
 
+const std::vector<std::string>& level_hessian_names() {
+  static const std::vector<std::string> names = {"auto", "galerkin", "lagged", "coarse", "coarse-first"};
+  return names;
+}
+
 std::optional<ProlongedHessian> parse_level_hessian(const std::string& name) {
   if (name == "auto") return std::nullopt;
   try {
     return parse_prolonged_hessian(name);
   } catch (const std::invalid_argument&) {
-    throw std::invalid_argument("unknown prolonged Hessian '" + name +
-                                "': use auto, galerkin, lagged, coarse or coarse-first");
+    const std::vector<std::string>& names = level_hessian_names();
+    std::string words;
+    for (std::size_t i = 0; i < names.size(); ++i)
+      words += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i];
+    throw std::invalid_argument("unknown prolonged Hessian '" + name + "': use " + words);
   }
 }
 

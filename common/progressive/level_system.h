@@ -19,6 +19,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "hierarchy/scene_hierarchy.h"
 #include "progressive/prolonged_term.h"
@@ -41,8 +42,11 @@ Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int le
 // slower and ball-drop's whole run 1.3x.
 ProlongedHessian auto_prolonged_hessian(int level);
 
+// The names a run may give (--hessian, SubmitJob.hessian): "auto", then parse_prolonged_hessian's.
+const std::vector<std::string>& level_hessian_names();
+
 // "auto" (nullopt: auto_prolonged_hessian per level) or a name parse_prolonged_hessian accepts, for
-// every coarse level; throws std::invalid_argument naming the accepted words for anything else.
+// every coarse level; throws std::invalid_argument naming level_hessian_names() for anything else.
 std::optional<ProlongedHessian> parse_level_hessian(const std::string& name);
 
 struct LevelSystemOptions {

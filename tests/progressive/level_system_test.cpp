@@ -143,6 +143,9 @@ TEST(LevelSystem, LevelHessianNamesAreAutoOrAProlongedHessianAndAnythingElseIsRe
   EXPECT_EQ(parse_level_hessian("auto"), std::nullopt);
   EXPECT_EQ(parse_level_hessian("lagged"), ProlongedHessian::Lagged);
   EXPECT_EQ(parse_level_hessian("coarse-first"), ProlongedHessian::CoarseFirst);
+  // Every listed name parses (the list feeds pd's --hessian validator and the error message).
+  ASSERT_EQ(level_hessian_names().size(), 5u);
+  for (const std::string& name : level_hessian_names()) EXPECT_NO_THROW(parse_level_hessian(name)) << name;
   try {
     parse_level_hessian("Auto");
     ADD_FAILURE() << "\"Auto\" was accepted";
