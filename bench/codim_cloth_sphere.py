@@ -14,12 +14,17 @@ Material, matched term by term (Codim-IPC's MEMBRANE.h and its hinge):
     (0.821 MPa x membEMult 0.01), nu = 0.243, t = 0.318 mm, rho = 472.64 kg/m^3;
   bending: Codim-IPC's hinge energy is 3 k |e|^2 / (A1 + A2) (theta - theta_bar)^2 with
     k = E_b t^3 / (24 (1 - nu^2)), E_b = 82 100 Pa; ours is (D / 2) |e|^2 / (A1 + A2) (...)^2 with
-    D = E_b' t^3 / (12 (1 - nu^2)), so the same energy needs E_b' = 3 E_b = 246 300 Pa.
+    D = E_b' t^3 / (12 (1 - nu^2)), so the same energy needs E_b' = 3 E_b = 246 300 Pa;
+  strain limit: C-IPC's barrier on both principal stretches, limit 1.0608, acting from stretch 1 (its
+    s_hat) with kappa_s = 1e3 weighted by h^2 * area * thickness in its h^2-scaled potential, i.e.
+    1e3 * t = 0.318 J/m^2 per rest area here (physics/strain_limit.h). --our-strain-band keeps our
+    defaults instead (band from 1.0547, kappa_s = E t = 2.61 J/m^2): a different material.
 
 Prints per run (with and without friction): Newton iterations per step and solve seconds per step
 (frame statistics), on one thread. Pause other processes for the seconds to mean anything.
 
 Usage: bench/codim_cloth_sphere.py BUILD_DIR OUT_DIR CODIM_MESH_DIR [--steps N] [--time-step H]
+       [--friction MU ...] [--our-strain-band]
 """
 import argparse
 import json
@@ -33,7 +38,13 @@ import scene_variants
 MESHES = {"cloth": "square57.obj", "sphere": "sphere1K_0.3.obj", "floor": "square21.obj"}
 
 
-def scene(steps, h, friction):
+THICKNESS = 0.318e-3  # m
+
+
+def scene(steps, h, friction, codim_strain_band=True):
+    strain_limit = {"limit": 1.0608}
+    if codim_strain_band:
+        strain_limit.update({"barrier_start": 1.0, "stiffness": 1e3 * THICKNESS})
     pairs = [{"objects": ["cloth", "sphere"], "friction": friction},
              {"objects": ["cloth", "floor"], "friction": friction},
              {"objects": ["cloth", "cloth"], "friction": 0.25 * friction}]
@@ -48,8 +59,8 @@ def scene(steps, h, friction):
             {"name": "cloth", "mesh": {"type": "obj", "path": MESHES["cloth"]},
              "transform": {"translation": [0, 0.16, 0]},
              "material": {"density": 472.641509, "youngs_modulus": 8210.0, "poisson_ratio": 0.243,
-                          "thickness": 0.318e-3, "bending_youngs_modulus": 246300.0},
-             "self_contact": True, "strain_limit": {"limit": 1.0608}},
+                          "thickness": THICKNESS, "bending_youngs_modulus": 246300.0},
+             "self_contact": True, "strain_limit": strain_limit},
             {"name": "sphere", "mesh": {"type": "obj", "path": MESHES["sphere"]}, "obstacle": True},
             {"name": "floor", "mesh": {"type": "obj", "path": MESHES["floor"]},
              "transform": {"translation": [0, -0.16, 0]}, "obstacle": True},
@@ -64,6 +75,10 @@ def main():
     ap.add_argument("meshes", help="Codim-IPC's Projects/FEMShell/input (or a copy of its three OBJ files)")
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--time-step", type=float, default=0.01)
+    ap.add_argument("--our-strain-band", action="store_true",
+                    help="our default strain-limit band and stiffness instead of Codim-IPC's")
+    ap.add_argument("--friction", type=float, nargs="+", default=[0.4, 0.0],
+                    help="friction coefficients to run (cloth-cloth gets a quarter)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     for name in MESHES.values():  # the scene's paths are relative to its folder
@@ -74,10 +89,10 @@ def main():
     pd = os.path.join(a.build, "client", "pd")
     print(f"| friction | steps | h (s) | Newton its/step | solve s/step | s per iteration | unconverged |")
     print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for friction in (0.4, 0.0):
+    for friction in a.friction:
         path = os.path.join(a.out, f"codim-cloth-sphere-mu{friction}.json")
         with open(path, "w") as f:
-            json.dump(scene(a.steps, a.time_step, friction), f, indent=1)
+            json.dump(scene(a.steps, a.time_step, friction, not a.our_strain_band), f, indent=1)
         out = os.path.join(a.out, f"codim-cloth-sphere-mu{friction}.h5")
         subprocess.run([pd, "simulate", path, "--mode", "direct", "--threads", "1", "--out", out, "--force",
                         "--quiet", "--allow-unconverged"], check=True)

@@ -183,8 +183,8 @@ StrainLimitSettings StrainLimitSettings::from(double limit, double youngs, doubl
 void check_strain_limit_settings(const StrainLimitSettings& s) {
   if (!(s.limit > 1.0) || !std::isfinite(s.limit))
     throw std::invalid_argument("StrainLimitSettings: limit must be a finite stretch > 1");
-  if (!(s.activation > 0.0 && s.activation < s.limit - 1.0))
-    throw std::invalid_argument("StrainLimitSettings: activation must lie in (0, limit - 1)");
+  if (!(s.activation > 0.0 && s.activation <= s.limit - 1.0))
+    throw std::invalid_argument("StrainLimitSettings: activation must lie in (0, limit - 1]");
   if (!(s.stiffness >= 0.0) || !std::isfinite(s.stiffness))
     throw std::invalid_argument("StrainLimitSettings: stiffness must be finite and >= 0 (J/m^2)");
 }

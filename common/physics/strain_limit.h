@@ -17,7 +17,7 @@
 //   C  = F^T F,  eigenvalues lambda1 >= lambda2 >= 0,  principal stretches sigma_i = sqrt(lambda_i)
 // sigma_max = sigma_1 is the largest stretch of any material direction in the triangle (1 = rest).
 //
-// Energy (J), with s = limit (> 1), g_hat = activation (in (0, limit - 1)), s_hat = s - g_hat:
+// Energy (J), with s = limit (> 1), g_hat = activation (in (0, limit - 1]), s_hat = s - g_hat:
 //   E_t  = kappa_s * A_t * sum_{i=1,2} beta((s - sigma_i) / g_hat)
 //   beta(t) = -(t - 1)^2 ln t   for 0 < t < 1      (sigma_i in (s_hat, s): active)
 //   beta(t) = 0                 for t >= 1         (sigma_i <= s_hat: inactive)
@@ -31,8 +31,12 @@
 // h^2 * vol * kappa_s, in a potential that is h^2 times an energy; here the potential is in joules
 // and the weight is the rest area, so our kappa_s is C-IPC's kappa_s times the element measure per
 // unit area (its thickness if C-IPC's vol is area * thickness). C-IPC's default s_hat = 1 (the whole
-// stretch range is the activation band) corresponds to activation = limit - 1, the excluded end of
-// our range; our default band is narrower (see StrainLimitSettings::from).
+// stretch range is the activation band) corresponds to activation = limit - 1, the widest band
+// allowed (rest and compressed triangles stay inactive: the barrier acts only for sigma > s_hat).
+// Our default band is narrower (see StrainLimitSettings::from), so that moderate stretches feel
+// only the membrane; the price is that Newton's model sees the limit only in its last tenth, and a
+// large step into stretch is then cut short by max_step again and again (a scene can widen the
+// band: scene key strain_limit.barrier_start; docs/performance.md, "The strain limit's band").
 //
 // Why both singular values (as C-IPC) and not sigma_max alone: the admissible set is the same
 // (sigma_2 <= sigma_1), but sigma_max is not differentiable where sigma_1 == sigma_2 (rest state,
@@ -73,7 +77,7 @@ namespace pd {
 struct StrainLimitSettings {
   double limit = 1.1;       // s: largest admissible principal stretch (> 1; 1.1 = 10 % stretch)
   double activation = 0.0;  // g_hat: width of the band below the limit where the barrier acts, in
-                            // (0, limit - 1) (stretch ratio; the barrier starts at limit -
+                            // (0, limit - 1] (stretch ratio; the barrier starts at limit -
                             // activation). 0 (the default) = default_strain_limit_activation(limit).
   double stiffness = 0.0;   // kappa_s, J/m^2 (energy per rest area), >= 0; see
                             // default_strain_limit_stiffness. 0 leaves only the hard limit.
@@ -93,7 +97,7 @@ double default_strain_limit_activation(double limit);
 // barrier and the membrane it limits are commensurate.
 double default_strain_limit_stiffness(double youngs, double thickness);
 
-// Throws std::invalid_argument unless limit > 1, 0 < activation < limit - 1 and stiffness >= 0
+// Throws std::invalid_argument unless limit > 1, 0 < activation <= limit - 1 and stiffness >= 0
 // (all finite). Pass resolved settings (activation 0 is rejected here).
 void check_strain_limit_settings(const StrainLimitSettings& settings);
 

@@ -141,8 +141,11 @@ void add_contact_terms(const Scene& scene, SceneSystem& sys) {
     const SceneObject& obj = scene.objects[o];
     if (!obj.strain_limit) continue;
     const Faces F = sys.rest.F.middleRows(sys.object_face_offsets[o], obj.rest.num_faces());
-    const StrainLimitSettings s =
+    StrainLimitSettings s =
         StrainLimitSettings::from(obj.strain_limit->limit, obj.material.youngs_modulus, obj.material.thickness);
+    if (obj.strain_limit->barrier_start) s.activation = s.limit - *obj.strain_limit->barrier_start;
+    if (obj.strain_limit->stiffness) s.stiffness = *obj.strain_limit->stiffness;
+    check_strain_limit_settings(s);
     auto term = std::make_unique<StrainLimitTerm>(F, sys.rest.V, s);
     c.strain_limits.push_back(term.get());
     c.strain_limit_objects.push_back(static_cast<int>(o));

@@ -60,9 +60,17 @@ struct Pressure {
 };
 
 // C-IPC strain limiting: the largest singular value of each triangle's deformation gradient stays
-// below `limit` (1.1 = at most 10% stretch in any direction).
+// below `limit` (1.1 = at most 10% stretch in any direction), held by a barrier on the principal
+// stretches that acts from `barrier_start` on (physics/strain_limit.h).
 struct StrainLimit {
   double limit = 1.1;        // dimensionless stretch, > 1
+  // Stretch at which the barrier starts to act, in [1, limit); absent: limit - (limit - 1) / 10, the
+  // last tenth of the allowed stretch. C-IPC's scenes use 1 (the whole range): a wider band lets
+  // Newton's model see the limit coming instead of running into it (docs/performance.md).
+  std::optional<double> barrier_start;
+  // Barrier stiffness kappa_s, J/m^2 (energy per rest area), > 0; absent: E * thickness of the
+  // object's material (physics/strain_limit.h: default_strain_limit_stiffness).
+  std::optional<double> stiffness;
 };
 
 // IPC contact between all objects (and each object with itself where self_contact is set).

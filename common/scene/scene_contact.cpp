@@ -76,12 +76,19 @@ Ground read_ground(const JsonNode& node) {
 }
 
 StrainLimit read_strain_limit(const JsonNode& node) {
-  node.expect_keys({"limit"});
+  node.expect_keys({"limit", "barrier_start", "stiffness"});
   StrainLimit s;
   JsonNode limit = node.required("limit");
   s.limit = limit.number();
   // Below 1.0 even the rest shape would violate it; above 10 the limit means nothing for cloth.
   if (!(s.limit > 1.0 && s.limit <= 10.0)) limit.fail_got("must be > 1 (e.g. 1.1 for 10% stretch) and <= 10");
+  if (auto v = node.optional("barrier_start")) {
+    s.barrier_start = v->number();
+    // Below 1 the barrier would push on unstretched cloth; at the limit it would have no band.
+    if (!(*s.barrier_start >= 1.0 && *s.barrier_start < s.limit))
+      v->fail_got("must be >= 1 and below limit");
+  }
+  if (auto v = node.optional("stiffness")) s.stiffness = v->in_range(limits::kStrainLimitStiffness);
   return s;
 }
 

@@ -16,7 +16,7 @@ ContactConfig read_contact(const JsonNode& node, const std::vector<SceneObject>&
 // "ground": {height, normal, friction}.
 Ground read_ground(const JsonNode& node);
 
-// An object's "strain_limit": {limit}.
+// An object's "strain_limit": {limit, barrier_start, stiffness}.
 StrainLimit read_strain_limit(const JsonNode& node);
 
 }  // namespace pd::scene_json

@@ -73,6 +73,7 @@ constexpr Range kContactOffset{0.0, 1.0, "m"};
 constexpr Range kFriction{0.0, 10.0, ""};
 constexpr Range kEpsV{1e-9, 100.0, "m/s"};
 constexpr Range kBarrierStiffness{1e-6, 1e25, "J/m^4"};
+constexpr Range kStrainLimitStiffness{1e-9, 1e13, "J/m^2"};  // E * thickness spans 1e-6 .. 1e13
 constexpr Range kHierarchyRatio{1.0, 1000.0, ""};           // and > 1
 constexpr long long kMaxObjects = 1000;
 constexpr long long kMaxPinGroups = 1000;                   // per object

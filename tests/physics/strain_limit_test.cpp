@@ -221,6 +221,22 @@ TEST(StrainLimit, EnergyMatchesClosedFormBarrierOfBothStretches) {
   }
 }
 
+TEST(StrainLimit, TheWidestBandStartsAtRestLeavesRestAndCompressionAloneAndHasExactDerivatives) {
+  // activation = limit - 1 (C-IPC's s_hat = 1): the barrier acts on any stretch above 1.
+  const StrainLimitSettings widest{1.2, 1.2 - 1.0, 100.0};
+  EXPECT_NO_THROW(check_strain_limit_settings(widest));
+  EXPECT_THROW(check_strain_limit_settings({1.2, 0.2000001, 100.0}), std::invalid_argument);
+  const StrainLimitRest rest = rest_of(kRest);
+  for (const Vec<9>& x : {kRest, mapped(diag2(0.9, 1.0)), mapped(diag2(0.95, 0.8))}) {
+    EXPECT_EQ(strain_limit_energy(x, rest, widest), 0.0);
+    EXPECT_EQ(strain_limit_gradient(x, rest, widest).norm(), 0.0);
+  }
+  // A 2 % stretch already feels it, where the default band (from 1.18) does not.
+  EXPECT_GT(strain_limit_energy(mapped(diag2(1.02, 1.0)), rest, widest), 0.0);
+  EXPECT_EQ(strain_limit_energy(mapped(diag2(1.02, 1.0)), rest, resolve_strain_limit_settings({1.2, 0.0, 100.0})), 0.0);
+  expect_element_derivatives_match_fd(mapped(diag2(1.06, 0.97)), widest);
+}
+
 TEST(StrainLimit, AnisotropicStretchNearTheLimitDerivativesMatchFiniteDifferences) {
   expect_element_derivatives_match_fd(mapped(diag2(1.17, 0.95)), kWide);  // t = 0.3, sigma2 inactive
 }

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "physics/contact/barrier_potential.h"
+#include "physics/strain_limit.h"
 #include "progressive/test_scenes.h"
 #include "support/intersection_checker.h"
 #include "util/input_error.h"
@@ -80,12 +81,33 @@ TEST(ContactControl, TermsAreBuiltOnlyAsTheSceneDeclares) {
   }
   s.ground = Ground{};
   s.ground->friction = 0.4;
-  s.objects[0].strain_limit = StrainLimit{1.1};
+  s.objects[0].strain_limit = StrainLimit{1.1, {}, {}};
   SceneSystem sys = build_scene_system(s);
   for (const char* name : {"contact", "ground", "friction", "strain_limit"}) EXPECT_TRUE(has_term(sys, name)) << name;
   // The ground only for objects that collide with it: none here, so no ground term.
   s.objects[0].ground_contact = false;
   EXPECT_FALSE(has_term(build_scene_system(s), "ground"));
+}
+
+TEST(ContactControl, TheStrainLimitTermTakesTheScenesBandAndStiffnessOrTheDefaults) {
+  Scene s = contact_scene(0.01, 1);
+  s.objects.push_back(flat_sheet("sheet", 0.2, 2, 0.1));
+  s.objects[0].strain_limit = StrainLimit{1.1, {}, {}};
+  const SceneObject& obj = s.objects[0];
+  {
+    SceneSystem sys = build_scene_system(s);
+    ASSERT_EQ(sys.contact.strain_limits.size(), 1u);
+    const StrainLimitSettings& got = sys.contact.strain_limits[0]->settings();
+    EXPECT_EQ(got.limit, 1.1);
+    EXPECT_EQ(got.activation, default_strain_limit_activation(1.1));
+    EXPECT_EQ(got.stiffness, obj.material.youngs_modulus * obj.material.thickness);
+  }
+  s.objects[0].strain_limit->barrier_start = 1.0;
+  s.objects[0].strain_limit->stiffness = 0.25;
+  SceneSystem sys = build_scene_system(s);
+  const StrainLimitSettings& got = sys.contact.strain_limits[0]->settings();
+  EXPECT_EQ(got.limit - got.activation, 1.0);  // the band starts at rest
+  EXPECT_EQ(got.stiffness, 0.25);
 }
 
 TEST(ContactControl, ObstaclesArePinnedMasslessAndHaveNoElasticTerms) {
@@ -138,7 +160,7 @@ TEST(ContactControl, AStartBeyondTheStrainLimitIsRejectedNamingTheObject) {
   s.source_path = "shots/flag.json";
   s.objects.push_back(flat_sheet("flag", 0.5, 4, 0.0));
   s.objects[0].initial.col(0) *= 1.2;  // stretched 20% along x
-  s.objects[0].strain_limit = StrainLimit{1.1};
+  s.objects[0].strain_limit = StrainLimit{1.1, {}, {}};
   try {
     check_start_state(s, build_scene_system(s));
     ADD_FAILURE() << "no InputError";

@@ -69,7 +69,18 @@ TEST(SceneContact, GivenContactGroundAndObjectKeysAreRead) {
   EXPECT_TRUE(scene.objects[0].self_contact);
   EXPECT_FALSE(scene.objects[0].ground_contact);
   EXPECT_EQ(scene.objects[0].strain_limit->limit, 1.1);
+  EXPECT_FALSE(scene.objects[0].strain_limit->barrier_start.has_value());  // the term's default band
+  EXPECT_FALSE(scene.objects[0].strain_limit->stiffness.has_value());      // E * thickness
   EXPECT_EQ(scene.objects[1].motion->angular_velocity, Vec3(0, 6.28, 0));
+}
+
+TEST(SceneContact, StrainLimitBandStartAndStiffnessAreRead) {
+  json s = contact_scene();
+  s["objects"][0]["strain_limit"] = json::parse(R"({"limit": 1.0608, "barrier_start": 1.0, "stiffness": 0.318})");
+  const Scene scene = parse(s);
+  EXPECT_EQ(scene.objects[0].strain_limit->limit, 1.0608);
+  EXPECT_EQ(*scene.objects[0].strain_limit->barrier_start, 1.0);
+  EXPECT_EQ(*scene.objects[0].strain_limit->stiffness, 0.318);
 }
 
 TEST(SceneContact, AnObstacleNeedsNoMaterial) {
@@ -183,6 +194,20 @@ TEST(SceneContactErrors, BadGroundAndStrainLimitAreRejected) {
     s["objects"][0]["strain_limit"] = json::parse(std::string(R"({"limit": )") + limit + "}");
     expect_error(s, {"objects[0].strain_limit.limit: must be > 1"});
   }
+  // The band must start at or above rest and below the limit; the stiffness is a positive J/m^2.
+  for (const char* start : {"0.99", "1.1", "1.2", "\"1\""}) {
+    s = contact_scene();
+    s["objects"][0]["strain_limit"] = json::parse(std::string(R"({"limit": 1.1, "barrier_start": )") + start + "}");
+    expect_error(s, {"objects[0].strain_limit.barrier_start: must be"});
+  }
+  for (const char* stiffness : {"0", "-1", "1e20", "null"}) {
+    s = contact_scene();
+    s["objects"][0]["strain_limit"] = json::parse(std::string(R"({"limit": 1.1, "stiffness": )") + stiffness + "}");
+    expect_error(s, {"objects[0].strain_limit.stiffness: must be"});
+  }
+  s = contact_scene();
+  s["objects"][0]["strain_limit"] = json::parse(R"({"limit": 1.1, "barrier_stat": 1.0})");
+  expect_error(s, {"objects[0].strain_limit.barrier_stat: unknown key, did you mean 'barrier_start'?"});
 }
 
 }  // namespace

@@ -213,7 +213,7 @@ TEST(ContactScenes, StrainLimitedFlagNeverExceedsItsLimit) {
   free_flag["objects"][0]["self_contact"] = false;
   Scene s = parse_scene(free_flag.dump(), "flag.json", "");
   SceneSystem sys = build_scene_system(s);
-  s.objects[0].strain_limit = StrainLimit{10.0};  // a limit that never binds, only to measure stretch
+  s.objects[0].strain_limit = StrainLimit{10.0, {}, {}};  // a limit that never binds, only to measure stretch
   SceneSystem measured = build_scene_system(s);
   LevelStepper stepper(sys, s.solver, s.time_step);
   Eigen::VectorXd x = sys.x0, v = sys.v0;
