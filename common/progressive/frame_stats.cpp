@@ -9,6 +9,7 @@ FrameStats frame_stats(const FrameRecord& r) {
                {"line_search_cuts", double(n.line_search_cuts)},
                {"exact_hessians", double(n.exact_hessians)},
                {"projection_fallbacks", double(n.projection_fallbacks)},
+               {"extended_steps", double(n.extended_steps)},
                {"newton_converged", r.frame == 0 ? 1.0 : double(n.converged)},
                {"solve_seconds", r.seconds},
                {"assemble_seconds", n.assemble_seconds},

@@ -26,6 +26,7 @@ void accumulate(NewtonReport& total, const NewtonReport& part) {
   total.line_search_cuts += part.line_search_cuts;
   total.exact_hessians += part.exact_hessians;
   total.projection_fallbacks += part.projection_fallbacks;
+  total.extended_steps += part.extended_steps;
   total.assemble_seconds += part.assemble_seconds;
   total.analyse_seconds += part.analyse_seconds;
   total.factorize_seconds += part.factorize_seconds;

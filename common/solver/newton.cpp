@@ -8,6 +8,36 @@ namespace pd {
 namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Saddle escape (ExactFirst): consecutive clamped iterates whose step measure grew before an
+// extension is tried, and the longest extension, as a multiple of the Newton step (tried 2x, 4x, 8x).
+// One growth alone also happens near convergence (basket's direct run: 7.1e-4 -> 8.1e-4 m/s, and an
+// extension there sent one step from 11 to 34 iterations); two in a row is the escape pattern
+// (drape-gear: 1.2x-1.4x per iterate for ten iterates). 64x instead of 8x changed nothing measurable
+// (docs/performance.md, "Leaving a saddle").
+constexpr int kGrowthsBeforeExtension = 2;
+constexpr double kMaxExtension = 8.0;
+
+// Extends an accepted full step x + p to x + alpha p, alpha = 2, 4, ... up to kMaxExtension, while
+// the CCD bound admits it and the potential keeps strictly decreasing; `trial` and `trial_energy`
+// hold the accepted point. Returns whether it extended.
+bool extend_step(const IncrementalPotential& ip, const Eigen::VectorXd& x, const Eigen::VectorXd& p,
+                 Eigen::VectorXd& trial, double& trial_energy, double& alpha) {
+  // One CCD pass over the longest extension: any shorter one along the same line is admissible.
+  const double bound = kMaxExtension * ip.max_step(x, kMaxExtension * p);
+  bool extended = false;
+  while (2.0 * alpha <= bound) {
+    Eigen::VectorXd further = x + (2.0 * alpha) * p;
+    const double e = ip.value(further);
+    if (!(std::isfinite(e) && e < trial_energy)) break;
+    alpha *= 2.0;
+    trial = std::move(further);
+    trial_energy = e;
+    extended = true;
+  }
+  return extended;
+}
+
 }  // namespace
 
 NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
@@ -37,6 +67,14 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
   // clamping after them cost 1.75x the time (docs/performance.md, "Which Hessian projection").
   const bool exact_first = s.projection == HessianProjection::ExactFirst;
   bool try_exact = exact_first;
+  // A clamped iterate of ExactFirst sits where the exact Hessian is indefinite. When the full,
+  // uncapped clamped steps keep growing, Newton is leaving a saddle (a compressed sheet buckling):
+  // along the negative-curvature direction the clamped model's curvature is too high, each step
+  // only multiplies the distance from the saddle by 1 + |lambda| / c, and the escape takes tens of
+  // iterations (drape-gear's finest refinement: 16 in one step). Such a step is then extended
+  // (2x, 4x, up to kMaxExtension, within the CCD bound) while the potential keeps decreasing.
+  bool last_clamped = false;
+  int clamped_growths = 0;  // consecutive clamped iterates whose step measure grew
   for (r.iterations = 0; r.iterations < s.max_iterations;) {
     auto t0 = Clock::now();
     const Eigen::VectorXd g = ip.gradient(x);
@@ -44,6 +82,7 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     r.gradient_norms.push_back(g.norm());
 
     bool factorized;
+    bool clamped = false;  // ExactFirst only: this iterate's Hessian is the clamped one
     if (!exact_first) {
       factorized = assemble_and_factorize(s.projection, true);
     } else if (try_exact && assemble_and_factorize(HessianProjection::None, false)) {
@@ -51,6 +90,7 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
       ++r.exact_hessians;
     } else {
       if (try_exact) ++r.projection_fallbacks;
+      clamped = true;
       factorized = assemble_and_factorize(HessianProjection::Clamp, true);
     }
     if (!factorized) {
@@ -63,6 +103,9 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     ++r.iterations;
 
     const double measure = p.lpNorm<Eigen::Infinity>() / s.h;
+    const bool grew = last_clamped && clamped && measure > r.step_measures.back();
+    clamped_growths = grew ? clamped_growths + 1 : 0;
+    last_clamped = clamped;
     r.step_measures.push_back(measure);
     bool small = measure < s.step_tolerance;
     if (small && s.tangential_step) {
@@ -92,6 +135,10 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
       ++cuts;
       trial = x + alpha * p;
       trial_energy = ip.value(trial);
+    }
+    if (clamped_growths >= kGrowthsBeforeExtension && alpha == 1.0 && cuts == 0 &&
+        std::isfinite(trial_energy) && trial_energy < energy) {
+      if (extend_step(ip, x, p, trial, trial_energy, alpha)) ++r.extended_steps;
     }
     r.line_search_cuts += cuts;
     r.line_search_seconds += since(t0);

@@ -27,7 +27,8 @@ struct NewtonSettings {
   int max_line_search_cuts = 40;   // halvings before the line search gives up (no descent)
   // Element Hessian projection. ExactFirst: at every iterate the exact Hessian, reassembled with
   // Clamp only when CHOLMOD finds the assembled system indefinite; an iterate after a capped step
-  // (max_step < 1) is clamped without trying.
+  // (max_step < 1) is clamped without trying, and a full clamped step after two clamped iterates
+  // whose steps grew is extended while the potential decreases (leaving a saddle).
   // Clamping every indefinite element overestimates the curvature along buckling directions of a
   // compressed sheet, which the inertia term alone usually keeps positive; Newton then creeps
   // along them at a linear rate (docs/performance.md, "Which Hessian projection").
@@ -45,6 +46,9 @@ struct NewtonReport {
   // was indefinite and was reassembled clamped (the rest followed a capped step and were clamped)
   int exact_hessians = 0;
   int projection_fallbacks = 0;
+  // ExactFirst only: full steps extended (2x-8x) because the clamped steps before them kept growing,
+  // the sign of Newton leaving a saddle (newton.cpp)
+  int extended_steps = 0;
   bool converged = false;
   // "converged" | "max_iterations" | "no_descent" | "factorization_failed", or "pins_blocked" (set
   // by the level stepper when scripted pins could not reach their targets)
