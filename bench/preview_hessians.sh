@@ -25,7 +25,8 @@ run() {
     echo "failed - -"; return
   fi
   local its unconv
-  its=$(grep -o '[0-9]* Newton its$' "$log" | awk '{s += $1} END {print s + 0}')
+  # The run's total from its closing line; the progress lines carry only their frame's count.
+  its=$(grep -o '^[0-9]* Newton iterations$' "$log" | awk '{s += $1} END {print s + 0}')
   unconv=$(grep -o '[0-9]* steps not converged' "$log" | awk '{s += $1} END {print s + 0}')
   echo "$(awk '{print $2}' "$out/$name.time") $its $unconv"
 }
