@@ -129,20 +129,21 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     try_exact = exact_first && alpha == 1.0;
     Eigen::VectorXd trial = x + alpha * p;
     double trial_energy = ip.value(trial);
+    const auto descends = [&] { return std::isfinite(trial_energy) && trial_energy < energy; };
     int cuts = 0;
-    while (!(std::isfinite(trial_energy) && trial_energy < energy) && cuts < s.max_line_search_cuts) {
+    while (!descends() && cuts < s.max_line_search_cuts) {
       alpha *= 0.5;
       ++cuts;
       trial = x + alpha * p;
       trial_energy = ip.value(trial);
     }
-    if (clamped_growths >= kGrowthsBeforeExtension && alpha == 1.0 && cuts == 0 &&
-        std::isfinite(trial_energy) && trial_energy < energy) {
-      if (extend_step(ip, x, p, trial, trial_energy, alpha)) ++r.extended_steps;
-    }
+    // An extension only ever accepts a lower potential, so a step that descends still does after it.
+    if (clamped_growths >= kGrowthsBeforeExtension && alpha == 1.0 && cuts == 0 && descends() &&
+        extend_step(ip, x, p, trial, trial_energy, alpha))
+      ++r.extended_steps;
     r.line_search_cuts += cuts;
     r.line_search_seconds += since(t0);
-    if (!(std::isfinite(trial_energy) && trial_energy < energy)) {
+    if (!descends()) {
       r.stop_reason = "no_descent";
       r.gradient_norms.push_back(g.norm());
       return r;
