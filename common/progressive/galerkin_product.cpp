@@ -7,9 +7,22 @@
 #include <unordered_map>
 #include <utility>
 
+#include "util/parallel.h"
+
 namespace pd {
 
 namespace {
+
+// Sorts `ops` by their destination block (stable: each destination keeps its ops in the order they
+// were listed) and returns the offsets of each destination's run, destinations 0 .. count - 1.
+template <class Op, class Destination>
+std::vector<int> group_by_destination(std::vector<Op>& ops, int count, const Destination& destination) {
+  std::stable_sort(ops.begin(), ops.end(), [&](const Op& a, const Op& b) { return destination(a) < destination(b); });
+  std::vector<int> start(static_cast<size_t>(count) + 1, 0);
+  for (const Op& op : ops) ++start[static_cast<size_t>(destination(op)) + 1];
+  for (int d = 0; d < count; ++d) start[static_cast<size_t>(d) + 1] += start[static_cast<size_t>(d)];
+  return start;
+}
 
 // (row block, column block) -> one key.
 std::int64_t key(int a, int b) { return (static_cast<std::int64_t>(a) << 32) | static_cast<std::uint32_t>(b); }
@@ -95,6 +108,8 @@ void GalerkinProduct::build_plans(const Eigen::SparseMatrix<double>& H, const Ei
     for (const auto& [p, j] : j_rows[a])
       for (const auto& [q, m] : m_rows[a])
         if (p >= q) gram_ops_.push_back({j, m, g_ids.at(key(p, q))});
+  mul_start_ = group_by_destination(mul_ops_, static_cast<int>(m_ids.size()), [](const MulOp& op) { return op.m; });
+  gram_start_ = group_by_destination(gram_ops_, static_cast<int>(blocks_.size()), [](const GramOp& op) { return op.g; });
 
   hb_.assign(h_ids.size(), Mat3::Zero());
   jb_.assign(j_ids.size(), Mat3::Zero());
@@ -117,25 +132,37 @@ const std::vector<GalerkinProduct::Block>& GalerkinProduct::compute(const Eigen:
   const Eigen::SparseMatrix<double>& J = J_in.isCompressed() ? J_in : J_copy;
   if (plans_built_ == 0 || !h_pattern_.same_as(H) || !j_pattern_.same_as(J)) build_plans(H, J);
 
+  // A pattern need not store every entry of its blocks: the rest stay zero.
   for (Mat3& b : hb_) b.setZero();
   for (Mat3& b : jb_) b.setZero();
-  for (Mat3& b : mb_) b.setZero();
-  for (Block& b : blocks_) b.block.setZero();
   double* h = hb_.empty() ? nullptr : hb_.front().data();
-  for (int k = 0; k < static_cast<int>(h_slot_.size()); ++k) {
+  parallel_for_index(static_cast<int>(h_slot_.size()), [&](int k) {
     h[h_slot_[k]] = H.valuePtr()[k];
     if (h_mirror_[k] >= 0) h[h_mirror_[k]] = H.valuePtr()[k];
-  }
+  }, 4096);
   double* j = jb_.empty() ? nullptr : jb_.front().data();
-  for (int k = 0; k < static_cast<int>(j_slot_.size()); ++k) j[j_slot_[k]] = J.valuePtr()[k];
+  parallel_for_index(static_cast<int>(j_slot_.size()), [&](int k) { j[j_slot_[k]] = J.valuePtr()[k]; }, 4096);
 
-  for (const MulOp& op : mul_ops_) {
-    if (op.transpose)
-      mb_[op.m].noalias() += hb_[op.h].transpose() * jb_[op.j];
-    else
-      mb_[op.m].noalias() += hb_[op.h] * jb_[op.j];
-  }
-  for (const GramOp& op : gram_ops_) blocks_[op.g].block.noalias() += jb_[op.j].transpose() * mb_[op.m];
+  parallel_for_index(static_cast<int>(mb_.size()), [&](int m) {
+    Mat3& out = mb_[static_cast<size_t>(m)];
+    out.setZero();
+    for (int o = mul_start_[static_cast<size_t>(m)]; o < mul_start_[static_cast<size_t>(m) + 1]; ++o) {
+      const MulOp& op = mul_ops_[static_cast<size_t>(o)];
+      if (op.transpose)
+        out.noalias() += hb_[op.h].transpose() * jb_[op.j];
+      else
+        out.noalias() += hb_[op.h] * jb_[op.j];
+    }
+  });
+  // G has few blocks (coarse vertex pairs), each with many products: small tasks.
+  parallel_for_index(static_cast<int>(blocks_.size()), [&](int g) {
+    Mat3& out = blocks_[static_cast<size_t>(g)].block;
+    out.setZero();
+    for (int o = gram_start_[static_cast<size_t>(g)]; o < gram_start_[static_cast<size_t>(g) + 1]; ++o) {
+      const GramOp& op = gram_ops_[static_cast<size_t>(o)];
+      out.noalias() += jb_[op.j].transpose() * mb_[op.m];
+    }
+  }, 4);
   return blocks_;
 }
 

@@ -13,6 +13,8 @@
 // Order of operations (fixed, so the same inputs give the same bits): M = H J is formed fine block by
 // fine block in H's column-major order, then G = J^T M fine vertex by fine vertex. This order is not
 // Eigen's, so G differs from the previous code's in the last bits.
+// Threads (util/parallel.h's rule): each block of M and of G is summed by one thread from its own list
+// of block products, kept in that serial order, so the bits do not depend on the thread count.
 //
 // Conventions: H is 3 n_f x 3 n_f, lower triangle stored (HessianAssembly::finish's output), J is
 // 3 n_f x 3 n_c (stacked coordinates, x[3i + k]); G is given as its lower block triangle (i >= j,
@@ -64,8 +66,12 @@ class GalerkinProduct {
   struct GramOp {  // blocks_[g].block += jb_[j]^T * mb_[m]
     int j, m, g;
   };
+  // Both op lists grouped by the block they add to (stable, so each block's ops stay in the serial
+  // order); the ops of M block m are mul_ops_[mul_start_[m], mul_start_[m + 1]), likewise for G.
   std::vector<MulOp> mul_ops_;
+  std::vector<int> mul_start_;
   std::vector<GramOp> gram_ops_;
+  std::vector<int> gram_start_;
   std::vector<Block> blocks_;
 };
 

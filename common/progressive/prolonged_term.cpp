@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "util/parallel.h"
+
 namespace pd {
 
 ProlongedHessian parse_prolonged_hessian(const std::string& name) {
@@ -56,7 +58,16 @@ const Eigen::SparseMatrix<double>& ProlongationState::jacobian(const Eigen::Vect
 
 Eigen::VectorXd ProlongationState::restrict(const Eigen::VectorXd& x, const Eigen::VectorXd& g_fine) const {
   if (mode_ == ProlongedGradient::Frozen) return P_->restrict_gradient(g_fine);
-  return jacobian(x).transpose() * g_fine;
+  // Column c of J dotted with g, one coarse dof per index, each summed in the column's stored order
+  // (Eigen's own order for J^T g): the same bits for every thread count.
+  const Eigen::SparseMatrix<double>& J = jacobian(x);
+  Eigen::VectorXd out(J.cols());
+  parallel_for_index(static_cast<int>(J.cols()), [&](int c) {
+    double sum = 0.0;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(J, c); it; ++it) sum += it.value() * g_fine[it.row()];
+    out[c] = sum;
+  }, 8);
+  return out;
 }
 
 ProlongedTerm::ProlongedTerm(std::unique_ptr<EnergyTerm> fine, std::shared_ptr<ProlongationState> state,

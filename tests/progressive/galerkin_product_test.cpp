@@ -3,9 +3,11 @@
 // the patterns repeat and rebuilt when they change, partial blocks (U (x) I3's diagonal entries), and
 // sizes that do not fit.
 #include "progressive/galerkin_product.h"
+#include "util/parallel.h"
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <random>
 #include <set>
 #include <utility>
@@ -118,6 +120,32 @@ TEST(GalerkinProduct, HandlesPartialBlocksOfTheFrozenProlongation) {
   const Sparse H = random_lower_hessian(25, 40, rng);
   GalerkinProduct product;
   EXPECT_EQ(expect_matches_dense(product.compute(H, U), dense_galerkin(H, U)), 9 * 10 / 2);
+}
+
+TEST(GalerkinProduct, GivesTheSameBitsOnOneTwoAndThreeThreads) {
+  std::mt19937 rng(13);
+  // Large enough that every loop of compute() is split among threads (util/parallel.h's minimums).
+  const Sparse J = random_jacobian(800, 60, false, rng);
+  const Sparse H = random_lower_hessian(800, 3000, rng);
+  std::vector<std::vector<GalerkinProduct::Block>> results;
+  for (int threads : {1, 2, 3}) {
+    set_element_threads(threads);
+    GalerkinProduct product;
+    results.push_back(product.compute(H, J));
+  }
+  set_element_threads(0);
+  int compared = 0;
+  for (std::size_t r = 1; r < results.size(); ++r) {
+    ASSERT_EQ(results[r].size(), results[0].size());
+    for (std::size_t b = 0; b < results[0].size(); ++b) {
+      EXPECT_EQ(results[r][b].i, results[0][b].i);
+      EXPECT_EQ(results[r][b].j, results[0][b].j);
+      EXPECT_EQ(std::memcmp(results[r][b].block.data(), results[0][b].block.data(), sizeof(Mat3)), 0);
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 2 * 1000);
+  EXPECT_GT(expect_matches_dense(results[0], dense_galerkin(H, J)), 1000);
 }
 
 TEST(GalerkinProduct, RefusesSizesThatDoNotFit) {
