@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <limits>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "util/parallel.h"
@@ -61,6 +62,9 @@ Eigen::VectorXd ProlongationState::restrict(const Eigen::VectorXd& x, const Eige
   // Column c of J dotted with g, one coarse dof per index, each summed in the column's stored order
   // (Eigen's own order for J^T g): the same bits for every thread count.
   const Eigen::SparseMatrix<double>& J = jacobian(x);
+  if (g_fine.size() != J.rows())  // the loop below reads g_fine by J's row indices
+    throw std::invalid_argument("ProlongationState::restrict: fine gradient of size " + std::to_string(g_fine.size()) +
+                                ", expected " + std::to_string(J.rows()));
   Eigen::VectorXd out(J.cols());
   parallel_for_index(static_cast<int>(J.cols()), [&](int c) {
     double sum = 0.0;
