@@ -122,6 +122,7 @@ class HingeBending : public EnergyTerm {
   // Each 12 x 12 hinge block is projected with project_hessian<12> before assembly.
   void add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                    HessianAssembly& hessian) const override;
+  bool may_limit_step() const override { return false; }  // max_step is always 1
 
   double stiffness() const { return k_; }
   const std::vector<HingeRest>& rest() const { return rest_; }

@@ -6,6 +6,8 @@
 // Every member takes the stacked positions x (size 3n, metres, x[3i+k] = coordinate k of vertex i,
 // vertex indices global over all objects of the scene).
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -30,6 +32,11 @@ class EnergyTerm {
   virtual std::string name() const = 0;
 
   virtual double value(const Eigen::VectorXd& x) const = 0;
+  // The value split by stats key: a term that sums several energies (the prolonged shell terms of
+  // a coarse level) reports each under its own name; every other term is one (name(), value(x)).
+  virtual std::vector<std::pair<std::string, double>> named_values(const Eigen::VectorXd& x) const {
+    return {{name(), value(x)}};
+  }
   // grad += d value / d x.
   virtual void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const = 0;
   // Adds the Hessian, element by element, each element projected as `projection` says.
@@ -42,6 +49,9 @@ class EnergyTerm {
   // Largest alpha in (0, 1] such that x + alpha * dx stays admissible for this term (contact CCD,
   // strain limits, inverted volumes). Terms without such a constraint return 1.
   virtual double max_step(const Eigen::VectorXd& /*x*/, const Eigen::VectorXd& /*dx*/) const { return 1.0; }
+  // False only for a term whose max_step is 1 whatever x and dx are, so a wrapper that must first
+  // map dx elsewhere (the prolonged terms' J dx) can skip that work. True is always safe.
+  virtual bool may_limit_step() const { return true; }
 };
 
 }  // namespace pd

@@ -92,6 +92,7 @@ class NeoHookeanMembrane : public EnergyTerm {
   // Adds each element Hessian (N/m), projected per element with project_hessian<9>.
   void add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                    HessianAssembly& hessian) const override;
+  bool may_limit_step() const override { return false; }  // max_step is always 1
 
   int num_faces() const { return static_cast<int>(faces_.size()); }
   const MembraneMaterialParams& params() const { return params_; }

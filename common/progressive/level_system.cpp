@@ -94,11 +94,13 @@ SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarc
   const SceneLevel& finest = hierarchy.levels.back();
   const ProlongedHessian hessian = options.hessian.value_or(auto_prolonged_hessian(level));
   sys.prolongation = std::make_shared<ProlongationState>(*lv.to_finest_prolongation, stacked(lv.rest.V), options.gradient);
+  // Every deformable object's shell terms in one prolonged term (see prolonged_term.h), in object
+  // order and, within an object, in add_shell_forces' order (the frame statistics' key order).
+  std::vector<std::unique_ptr<EnergyTerm>> fine_terms, coarse_terms;
   for (std::size_t o = 0; o < scene.objects.size(); ++o) {
     const SceneObject& obj = scene.objects[o];
     if (obj.obstacle) continue;
     const int fine_offset = finest.vertex_offsets[o], coarse_offset = lv.vertex_offsets[o];
-    std::vector<std::unique_ptr<EnergyTerm>> fine_terms, coarse_terms;
     Faces fine_faces = obj.rest.F;
     fine_faces.array() += fine_offset;
     add_shell_forces(obj, fine_faces, fine_offset, finest.rest.V, finest_initial, fine_terms);
@@ -108,10 +110,10 @@ SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarc
       coarse_faces.array() += coarse_offset;
       add_shell_forces(coarse_obj, coarse_faces, coarse_offset, lv.rest.V, sys.x0, coarse_terms);
     }
-    for (std::size_t k = 0; k < fine_terms.size(); ++k)
-      sys.ip.add_term(std::make_unique<ProlongedTerm>(std::move(fine_terms[k]), sys.prolongation, hessian,
-                                                      k < coarse_terms.size() ? std::move(coarse_terms[k]) : nullptr));
   }
+  if (!fine_terms.empty())
+    sys.ip.add_term(std::make_unique<ProlongedTerm>(std::move(fine_terms), sys.prolongation, hessian,
+                                                    std::move(coarse_terms)));
   return sys;
 }
 

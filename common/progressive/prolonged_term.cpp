@@ -74,32 +74,74 @@ Eigen::VectorXd ProlongationState::restrict(const Eigen::VectorXd& x, const Eige
   return out;
 }
 
+namespace {
+
+std::vector<std::unique_ptr<EnergyTerm>> one_or_none(std::unique_ptr<EnergyTerm> term) {
+  std::vector<std::unique_ptr<EnergyTerm>> out;
+  if (term) out.push_back(std::move(term));
+  return out;
+}
+
+}  // namespace
+
+ProlongedTerm::ProlongedTerm(std::vector<std::unique_ptr<EnergyTerm>> fine, std::shared_ptr<ProlongationState> state,
+                             ProlongedHessian mode, std::vector<std::unique_ptr<EnergyTerm>> coarse_stand_ins)
+    : fine_(std::move(fine)), state_(std::move(state)), mode_(mode), coarse_(std::move(coarse_stand_ins)) {
+  if (fine_.empty() || !state_) throw std::invalid_argument("ProlongedTerm: needs a fine term and a prolongation state");
+  for (const auto& t : fine_) {
+    if (!t) throw std::invalid_argument("ProlongedTerm: a fine term is null");
+    may_limit_step_ = may_limit_step_ || t->may_limit_step();
+  }
+  for (const auto& t : coarse_)
+    if (!t) throw std::invalid_argument("ProlongedTerm: a coarse stand-in is null");
+  if ((mode_ == ProlongedHessian::Coarse || mode_ == ProlongedHessian::CoarseFirst) && coarse_.empty())
+    throw std::invalid_argument("ProlongedTerm: the Coarse and CoarseFirst Hessians need a stand-in term on the level's mesh");
+}
+
 ProlongedTerm::ProlongedTerm(std::unique_ptr<EnergyTerm> fine, std::shared_ptr<ProlongationState> state,
                              ProlongedHessian mode, std::unique_ptr<EnergyTerm> coarse_stand_in)
-    : fine_(std::move(fine)), state_(std::move(state)), mode_(mode), coarse_(std::move(coarse_stand_in)) {
-  if (!fine_ || !state_) throw std::invalid_argument("ProlongedTerm: needs a fine term and a prolongation state");
-  if ((mode_ == ProlongedHessian::Coarse || mode_ == ProlongedHessian::CoarseFirst) && !coarse_)
-    throw std::invalid_argument("ProlongedTerm: the Coarse and CoarseFirst Hessians need a stand-in term on the level's mesh");
+    : ProlongedTerm(one_or_none(std::move(fine)), std::move(state), mode, one_or_none(std::move(coarse_stand_in))) {}
+
+std::string ProlongedTerm::name() const {
+  std::string out;
+  for (const auto& t : fine_) out += (out.empty() ? "" : "+") + t->name();
+  return out;
 }
 
 double ProlongedTerm::value(const Eigen::VectorXd& x) const {
   try {
-    return fine_->value(state_->fine_positions(x));
+    const Eigen::VectorXd y = state_->fine_positions(x);
+    double sum = 0.0;
+    for (const auto& t : fine_) sum += t->value(y);
+    return sum;
   } catch (const DegenerateProlongationTriangle&) {
     return std::numeric_limits<double>::infinity();  // no prolonged shape: see the header
   }
 }
 
+std::vector<std::pair<std::string, double>> ProlongedTerm::named_values(const Eigen::VectorXd& x) const {
+  std::vector<std::pair<std::string, double>> out;
+  try {
+    const Eigen::VectorXd y = state_->fine_positions(x);
+    for (const auto& t : fine_) out.emplace_back(t->name(), t->value(y));
+  } catch (const DegenerateProlongationTriangle&) {
+    out.clear();
+    for (const auto& t : fine_) out.emplace_back(t->name(), std::numeric_limits<double>::infinity());
+  }
+  return out;
+}
+
 void ProlongedTerm::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(state_->num_fine()));
-  fine_->add_gradient(state_->fine_positions(x), g);
+  const Eigen::VectorXd y = state_->fine_positions(x);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(y.size());
+  for (const auto& t : fine_) t->add_gradient(y, g);
   grad += state_->restrict(x, g);
 }
 
 void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                                 HessianAssembly& hessian) const {
   if (mode_ == ProlongedHessian::Coarse) {
-    coarse_->add_hessian(x, projection, hessian);
+    for (const auto& t : coarse_) t->add_hessian(x, projection, hessian);
     return;
   }
   if (mode_ == ProlongedHessian::CoarseFirst && assemblies_in_step_++ < kCoarseFirstAssemblies) {
@@ -168,7 +210,7 @@ void ProlongedTerm::add_blocks(const std::vector<GalerkinProduct::Block>& values
 // blocks in (column, row) order.
 void ProlongedTerm::compute_coarse_blocks(const Eigen::VectorXd& x, HessianProjection projection) const {
   coarse_hessian_.begin(static_cast<int>(x.size()));
-  coarse_->add_hessian(x, projection, coarse_hessian_);
+  for (const auto& t : coarse_) t->add_hessian(x, projection, coarse_hessian_);
   const HessianAssembly::SparseMatrix& H = coarse_hessian_.finish(nullptr);
   coarse_blocks_.clear();
   for (int j = 0; 3 * j < H.outerSize(); ++j) {
@@ -193,12 +235,18 @@ void ProlongedTerm::compute_coarse_blocks(const Eigen::VectorXd& x, HessianProje
 void ProlongedTerm::compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection,
                                             GalerkinProduct& product) const {
   fine_hessian_.begin(3 * state_->num_fine());
-  fine_->add_hessian(state_->fine_positions(x), projection, fine_hessian_);
+  const Eigen::VectorXd y = state_->fine_positions(x);
+  for (const auto& t : fine_) t->add_hessian(y, projection, fine_hessian_);
   product.compute(fine_hessian_.finish(nullptr), state_->jacobian(x));
 }
 
 double ProlongedTerm::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const {
-  return fine_->max_step(state_->fine_positions(x), state_->jacobian(x) * dx);
+  if (!may_limit_step_) return 1.0;
+  const Eigen::VectorXd y = state_->fine_positions(x);
+  const Eigen::VectorXd dy = state_->jacobian(x) * dx;
+  double alpha = 1.0;
+  for (const auto& t : fine_) alpha = std::min(alpha, t->max_step(y, dy));
+  return alpha;
 }
 
 void ProlongedTerm::begin_step(const StepStart& step) {
@@ -216,7 +264,7 @@ void ProlongedTerm::begin_step(const StepStart& step) {
     v_fine = step.x ? Eigen::VectorXd(state_->jacobian(*step.x) * *step.v) : Eigen::VectorXd(state_->U() * *step.v);
     fine.v = &v_fine;
   }
-  fine_->begin_step(fine);
+  for (const auto& t : fine_) t->begin_step(fine);
 }
 
 }  // namespace pd

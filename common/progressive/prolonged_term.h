@@ -1,5 +1,5 @@
 #pragma once
-// A finest-level energy felt by a coarser level through the shell prolongation (PD eq. 4, PSQ
+// Finest-level energies felt by a coarser level through the shell prolongation (PD eq. 4, PSQ
 // section 4.3): a coarse level l is stepped on its own vertices x (stacked, 3 n_l), but its shell
 // elasticity is the finest level's, evaluated on the prolonged shape y = P^l(x) = U x + a(x).
 //
@@ -57,6 +57,7 @@
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -141,31 +142,45 @@ constexpr int kCoarseFirstAssemblies = 8;
 // std::invalid_argument naming the accepted words for anything else.
 ProlongedHessian parse_prolonged_hessian(const std::string& name);
 
+// The finest-level shell terms of a coarse level (membrane, bending and pressure of every
+// deformable object), felt together through the level's prolongation. One term for all of them, not
+// one per energy: an iterate then computes one prolonged shape, one fine Hessian assembly, one
+// Galerkin product and one restriction (J^T (g_1 + g_2 + ...)), which were each paid once per
+// energy and object before (about 15% of a one-thread flag-large preview, docs/performance.md).
 class ProlongedTerm : public EnergyTerm {
  public:
-  // fine: the finest-level term (global finest ids). state: the level's shared prolongation state.
-  // modes Coarse and CoarseFirst need `coarse_stand_in` (the same energy on level l's mesh, level l
-  // ids); Galerkin and Lagged ignore it. Throws std::invalid_argument for a missing term/state or a
-  // Coarse or CoarseFirst mode without a stand-in.
+  // fine: the finest-level terms (global finest ids), at least one. state: the level's shared
+  // prolongation state. Modes Coarse and CoarseFirst need `coarse_stand_ins` (the same energies on
+  // level l's mesh, level l ids; their Hessians are summed); Galerkin and Lagged ignore them.
+  // Throws std::invalid_argument for no term, a null term or state, or a Coarse or CoarseFirst mode
+  // without stand-ins.
+  ProlongedTerm(std::vector<std::unique_ptr<EnergyTerm>> fine, std::shared_ptr<ProlongationState> state,
+                ProlongedHessian mode, std::vector<std::unique_ptr<EnergyTerm>> coarse_stand_ins = {});
+  // One fine term (and its stand-in, may be null).
   ProlongedTerm(std::unique_ptr<EnergyTerm> fine, std::shared_ptr<ProlongationState> state, ProlongedHessian mode,
                 std::unique_ptr<EnergyTerm> coarse_stand_in = nullptr);
 
-  // The fine term's name ("membrane", "bending", ...), so frame statistics keep their keys.
-  std::string name() const override { return fine_->name(); }
+  // The fine terms' names joined by '+' ("membrane+bending"); frame statistics use named_values.
+  std::string name() const override;
   double value(const Eigen::VectorXd& x) const override;
+  // Each fine term's value at the one prolonged shape, under its own name ("membrane", "bending",
+  // ...), so frame statistics keep their keys.
+  std::vector<std::pair<std::string, double>> named_values(const Eigen::VectorXd& x) const override;
   void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const override;
   void add_hessian(const Eigen::VectorXd& x, HessianProjection projection, HessianAssembly& hessian) const override;
-  // Hands the fine term the prolonged start state (positions P(x), velocities J v).
+  // Hands every fine term the prolonged start state (positions P(x), velocities J v).
   void begin_step(const StepStart& step) override;
-  // The fine term's admissible step along the linearised prolonged motion J dx (pressure's volume
-  // guard).
+  // The fine terms' admissible step along the linearised prolonged motion J dx (pressure's volume
+  // guard); 1 without computing J dx when no fine term may limit the step (membrane and bending).
   double max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const override;
+  bool may_limit_step() const override { return may_limit_step_; }
 
  private:
-  std::unique_ptr<EnergyTerm> fine_;
+  std::vector<std::unique_ptr<EnergyTerm>> fine_;
   std::shared_ptr<ProlongationState> state_;
   ProlongedHessian mode_;
-  std::unique_ptr<EnergyTerm> coarse_;
+  std::vector<std::unique_ptr<EnergyTerm>> coarse_;
+  bool may_limit_step_ = false;  // some fine term may limit the step
   void compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection,
                                GalerkinProduct& product) const;
   void compute_coarse_blocks(const Eigen::VectorXd& x, HessianProjection projection) const;

@@ -39,11 +39,13 @@ std::vector<std::pair<std::string, double>> IncrementalPotential::term_values(co
                                                                                 const std::string& skip) const {
   std::vector<std::pair<std::string, double>> out;
   for (const auto& t : terms_) {
-    const std::string n = t->name();
-    if (n == skip) continue;
-    auto it = std::find_if(out.begin(), out.end(), [&](const auto& p) { return p.first == n; });
-    if (it == out.end()) out.emplace_back(n, t->value(x));
-    else it->second += t->value(x);
+    if (t->name() == skip) continue;  // not evaluated at all (inertia's target is a step's)
+    for (const auto& [n, v] : t->named_values(x)) {
+      if (n == skip) continue;
+      auto it = std::find_if(out.begin(), out.end(), [&](const auto& p) { return p.first == n; });
+      if (it == out.end()) out.emplace_back(n, v);
+      else it->second += v;
+    }
   }
   return out;
 }

@@ -1,13 +1,16 @@
 // The finest level's elasticity felt through the shell prolongation (progressive/prolonged_term.h):
 // derivatives of the exact and the frozen-offset energy, the Galerkin Hessian against a dense
-// J^T H J (U^T H U), the rest state, rigid motions (value, net force and torque), and the coarse
-// stand-in Hessian.
+// J^T H J (U^T H U), the rest state, rigid motions (value, net force and torque), the coarse
+// stand-in Hessian, and one term holding several energies (their sum, each named, step bounds).
 #include "progressive/prolonged_term.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <memory>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -205,6 +208,85 @@ TEST(ProlongedTerm, CoarseHessianIsTheStandInsWhileValueAndGradientStayProlonged
   EXPECT_TRUE(test::term_hessian(coarse, x, HessianProjection::Clamp) ==
               test::term_hessian(*stand_in, x, HessianProjection::Clamp));
   EXPECT_EQ(coarse.name(), "membrane");
+}
+
+// A fine term that records the direction it was asked about and bounds every step at 0.25.
+class StepBound : public EnergyTerm {
+ public:
+  std::string name() const override { return "bound"; }
+  double value(const Eigen::VectorXd&) const override { return 0.0; }
+  void add_gradient(const Eigen::VectorXd&, Eigen::VectorXd&) const override {}
+  void add_hessian(const Eigen::VectorXd&, HessianProjection, HessianAssembly&) const override {}
+  double max_step(const Eigen::VectorXd&, const Eigen::VectorXd& dy) const override {
+    asked = dy;
+    return 0.25;
+  }
+  mutable Eigen::VectorXd asked;
+};
+
+std::vector<std::unique_ptr<EnergyTerm>> terms(std::unique_ptr<EnergyTerm> a, std::unique_ptr<EnergyTerm> b) {
+  std::vector<std::unique_ptr<EnergyTerm>> out;
+  out.push_back(std::move(a));
+  out.push_back(std::move(b));
+  return out;
+}
+
+// One prolonged term holding membrane and bending (what a coarse level builds) is, to round-off,
+// the sum of the two single ones, for each Hessian mode that uses the fine terms; each energy keeps
+// its own name and exact value in named_values (the frame statistics); the coarse mode sums the
+// stand-ins' Hessians.
+TEST(ProlongedTerm, OneTermForSeveralEnergiesIsTheirSumAndNamesEachValue) {
+  Sheet s;
+  auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
+  const Eigen::VectorXd x = s.deformed();
+  const Eigen::VectorXd y = state->fine_positions(x);
+  const ProlongedTerm membrane(s.membrane(s.fine()), state, ProlongedHessian::Galerkin);
+  const ProlongedTerm bending(s.bending(s.fine()), state, ProlongedHessian::Galerkin);
+  const ProlongedTerm both(terms(s.membrane(s.fine()), s.bending(s.fine())), state, ProlongedHessian::Galerkin);
+  EXPECT_EQ(both.name(), "membrane+bending");
+  const double sum = membrane.value(x) + bending.value(x);
+  EXPECT_LE(std::abs(both.value(x) - sum), 1e-14 * std::abs(sum));
+  const auto named = both.named_values(x);
+  ASSERT_EQ(named.size(), 2u);
+  EXPECT_EQ(named[0].first, "membrane");
+  EXPECT_EQ(named[0].second, s.membrane(s.fine())->value(y));
+  EXPECT_EQ(named[1].first, "bending");
+  EXPECT_EQ(named[1].second, s.bending(s.fine())->value(y));
+  const Eigen::VectorXd g = test::term_gradient(membrane, x) + test::term_gradient(bending, x);
+  EXPECT_LE((test::term_gradient(both, x) - g).norm(), 1e-13 * g.norm());
+  for (const HessianProjection p : {HessianProjection::None, HessianProjection::Clamp}) {
+    const Eigen::MatrixXd H = test::term_hessian(membrane, x, p) + test::term_hessian(bending, x, p);
+    EXPECT_LE((test::term_hessian(both, x, p) - H).norm(), 1e-13 * H.norm());
+  }
+  const ProlongedTerm coarse(terms(s.membrane(s.fine()), s.bending(s.fine())), state, ProlongedHessian::Coarse,
+                             terms(s.membrane(s.coarse()), s.bending(s.coarse())));
+  const Eigen::MatrixXd stand_ins = test::term_hessian(*s.membrane(s.coarse()), x, HessianProjection::Clamp) +
+                                    test::term_hessian(*s.bending(s.coarse()), x, HessianProjection::Clamp);
+  EXPECT_LE((test::term_hessian(coarse, x, HessianProjection::Clamp) - stand_ins).norm(), 1e-13 * stand_ins.norm());
+  EXPECT_THROW(ProlongedTerm(terms(s.membrane(s.fine()), nullptr), state, ProlongedHessian::Galerkin),
+               std::invalid_argument);
+  EXPECT_THROW(ProlongedTerm(std::vector<std::unique_ptr<EnergyTerm>>{}, state, ProlongedHessian::Galerkin),
+               std::invalid_argument);
+}
+
+// Membrane and bending never bound a step, so the term does not compute J dx for them; a fine term
+// that may bound it is asked along J dx, and the smallest bound wins.
+TEST(ProlongedTerm, MaxStepAsksTheFineTermsAlongJdxOnlyWhenOneMayBoundIt) {
+  Sheet s;
+  auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
+  const Eigen::VectorXd x = s.deformed();
+  const Eigen::VectorXd dx = test::wavy(x.size(), 0.7, 0.3);
+  const ProlongedTerm shell(terms(s.membrane(s.fine()), s.bending(s.fine())), state, ProlongedHessian::Galerkin);
+  EXPECT_FALSE(shell.may_limit_step());
+  EXPECT_EQ(shell.max_step(x, dx), 1.0);
+  auto bound = std::make_unique<StepBound>();
+  const StepBound* seen = bound.get();
+  const ProlongedTerm bounded(terms(s.membrane(s.fine()), std::move(bound)), state, ProlongedHessian::Galerkin);
+  EXPECT_TRUE(bounded.may_limit_step());
+  EXPECT_EQ(bounded.max_step(x, dx), 0.25);
+  const Eigen::VectorXd Jdx = Eigen::MatrixXd(s.P().jacobian(as_rows(x))) * dx;
+  ASSERT_EQ(seen->asked.size(), Jdx.size());
+  EXPECT_LE((seen->asked - Jdx).norm(), 1e-13 * Jdx.norm());
 }
 
 // The lagged Galerkin Hessian: exact at a step's first assembly, then reused (whatever x is) until
