@@ -74,9 +74,10 @@ enum class ProlongedGradient {
   Frozen,  // PSQ / PD 4.6: offsets frozen at the last accepted iterate, gradient U^T grad Psi
 };
 
-// The prolongation of one level, shared by all the level's prolonged terms, so P(x) and its
-// Jacobian are computed once per state x, not once per term: the last state's are kept (the terms
-// of one Newton iterate ask for the same x). Not thread-safe (the cache is mutable).
+// The prolongation of one level, shared by the level's prolonged term and its stepper (which
+// refreshes frozen offsets), so P(x) and its Jacobian are computed once per state x: the last
+// state's are kept (value, gradient and Hessian of one Newton iterate ask for the same x). Not
+// thread-safe (the cache is mutable).
 class ProlongationState {
  public:
   // prolongation: P^l (fine = finest level, coarse = level l); not owned, must outlive this.
