@@ -32,17 +32,18 @@ struct HingeFrame {
     n1 = e.cross(a);
     n2 = b.cross(e);
     len = e.norm();
-    const double tol = kDegenerateRatio * len * len;
-    degenerate = !(n1.norm() > tol && n2.norm() > tol);  // also true for len == 0 or NaN input
+    // |n| > tol compared squared (no square roots); tol^2 underflows only for |e| < 1e-70 m.
+    const double tol = kDegenerateRatio * len * len, tol2 = tol * tol;
+    degenerate = !(n1.squaredNorm() > tol2 && n2.squaredNorm() > tol2);  // also true for len == 0 or NaN input
   }
 };
 
 // Both wings are handled by one function of the edge e and the wing vector c:
-//   F(e, c) = -|e| N / |N|^2,  N = e x c.
+//   F(e, c) = -|e| N / |N|^2,  N = e x c  (the frame's n1 for c = a, -n2 for c = b: passed in, not
+//   recomputed; the negation is exact, so the bits are those of computing e x b).
 // dtheta/da = F(e, a) (moving x2 along n1 folds the hinge towards its normals: theta decreases),
 // and since n2 = -(e x b), dtheta/db = -F(e, b).
-Vec3 wing_gradient(const Vec3& e, double len, const Vec3& c) {
-  const Vec3 N = e.cross(c);
+Vec3 wing_gradient(double len, const Vec3& N) {
   return -len / N.squaredNorm() * N;
 }
 
@@ -52,8 +53,7 @@ Vec3 wing_gradient(const Vec3& e, double len, const Vec3& c) {
 // so
 //   dF/dc = -(|e| / s) P [e]x                    (symmetric: N is orthogonal to e)
 //   dF/de = -N e^^T / s + (|e| / s) P [c]x      (e^ = e / |e|)
-void wing_derivatives(const Vec3& e, double len, const Vec3& c, Mat3& dF_dc, Mat3& dF_de) {
-  const Vec3 N = e.cross(c);
+void wing_derivatives(const Vec3& e, double len, const Vec3& c, const Vec3& N, Mat3& dF_dc, Mat3& dF_de) {
   const double s = N.squaredNorm();
   const Mat3 P = Mat3::Identity() - (2.0 / s) * N * N.transpose();
   dF_dc = (-len / s) * P * cross_matrix(e);
@@ -81,8 +81,8 @@ Vec<12> angle_gradient_of(const HingeFrame& f) {
   Vec<12> g = Vec<12>::Zero();
   if (f.degenerate) return g;
   const double len2 = f.len * f.len;
-  const Vec3 Ga = wing_gradient(f.e, f.len, f.a);
-  const Vec3 Gb = -wing_gradient(f.e, f.len, f.b);
+  const Vec3 Ga = wing_gradient(f.len, f.n1);
+  const Vec3 Gb = -wing_gradient(f.len, -f.n2);
   const double alpha1 = f.a.dot(f.e) / len2, alpha2 = f.b.dot(f.e) / len2;
   const Vec3 Ge = -alpha1 * Ga - alpha2 * Gb;
   g.segment<3>(0) = -(Ge + Ga + Gb);
@@ -104,11 +104,12 @@ Mat<12> angle_hessian_of(const HingeFrame& f) {
   if (f.degenerate) return H;
   const double len2 = f.len * f.len;
 
-  const Vec3 Fa = wing_gradient(f.e, f.len, f.a);
-  const Vec3 Fb = wing_gradient(f.e, f.len, f.b);
+  const Vec3 Na = f.n1, Nb = -f.n2;  // e x a, e x b
+  const Vec3 Fa = wing_gradient(f.len, Na);
+  const Vec3 Fb = wing_gradient(f.len, Nb);
   Mat3 Fa_c, Fa_e, Fb_c, Fb_e;
-  wing_derivatives(f.e, f.len, f.a, Fa_c, Fa_e);
-  wing_derivatives(f.e, f.len, f.b, Fb_c, Fb_e);
+  wing_derivatives(f.e, f.len, f.a, Na, Fa_c, Fa_e);
+  wing_derivatives(f.e, f.len, f.b, Nb, Fb_c, Fb_e);
   const double alpha1 = f.a.dot(f.e) / len2, alpha2 = f.b.dot(f.e) / len2;
 
   Mat3 Hy[3][3];
@@ -201,6 +202,7 @@ HingeBending::HingeBending(const std::vector<Hinge>& hinges, const Positions& re
                                   " has a degenerate rest triangle");
     rest_.push_back(r);
   }
+  scatter_ = GradientScatterPlan::build<4>(static_cast<int>(hinges_.size()), [&](int i) { return hinges_[i].v; });
 }
 
 Vec<12> HingeBending::gather(const Eigen::VectorXd& x, const Hinge& h) const {
@@ -227,12 +229,12 @@ double HingeBending::value(const Eigen::VectorXd& x) const {
 void HingeBending::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
   const bool reuse = angles_key_.matches(x);
   add_element_gradients<4>(
-      static_cast<int>(hinges_.size()), [&](int i) { return hinges_[i].v; },
+      static_cast<int>(hinges_.size()),
       [&](int i) {
         const HingeFrame f(gather(x, hinges_[i]));
         return gradient_of(f, reuse ? angles_[static_cast<size_t>(i)] : angle_of(f), rest_[i], k_);
       },
-      grad);
+      scatter_, grad);
 }
 
 // Degenerate hinges still add their (zero) block so that the sequence of stencils, and with it the

@@ -80,6 +80,7 @@
 #include "geometry/mesh.h"
 #include "geometry/topology.h"
 #include "physics/energy_term.h"
+#include "physics/gradient_scatter_plan.h"
 #include "util/state_key.h"
 
 namespace pd {
@@ -133,6 +134,7 @@ class HingeBending : public EnergyTerm {
   std::vector<Hinge> hinges_;
   std::vector<HingeRest> rest_;  // one per hinge, same order
   double k_;                     // N m
+  GradientScatterPlan scatter_;  // the hinges' gradient slots per vertex, for the parallel scatter
   // The angles (rad) of value()'s last x, reused by add_gradient at the same x (util/state_key.h).
   mutable std::vector<double> angles_;
   mutable StateKey angles_key_;

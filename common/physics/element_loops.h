@@ -7,10 +7,13 @@
 // Shapes shared by all three: `count` elements; verts(e) -> std::array<int, N> (the element's
 // global vertex indices, its local dofs ordered verts[0] xyz, verts[1] xyz, ...).
 #include <array>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "physics/gradient_scatter_plan.h"
 #include "physics/hessian_assembly.h"
 #include "util/parallel.h"
 
@@ -36,6 +39,26 @@ void add_element_gradients(int count, const Verts& verts, const Gradient& gradie
     const std::array<int, N> v = verts(e);
     for (int a = 0; a < N; ++a) grad.template segment<3>(3 * v[a]) += g[static_cast<size_t>(e)].template segment<3>(3 * a);
   }
+}
+
+// add_element_gradients with the scatter run per vertex on every thread (same bits as the serial
+// scatter): the element vertices are the plan's, which must have been built for these `count`
+// elements (throws std::logic_error when its element count differs).
+template <int N, class Gradient>
+void add_element_gradients(int count, const Gradient& gradient, const GradientScatterPlan& plan,
+                           Eigen::VectorXd& grad) {
+  if (plan.elements() != count)
+    throw std::logic_error("add_element_gradients: a scatter plan built for " + std::to_string(plan.elements()) +
+                           " elements, used for " + std::to_string(count));
+  std::vector<Eigen::Matrix<double, 3 * N, 1>> g(static_cast<size_t>(count));
+  parallel_for_index(count, [&](int e) { g[static_cast<size_t>(e)] = gradient(e); });
+  parallel_for_index(plan.vertices(), [&](int k) {
+    auto out = grad.template segment<3>(3 * plan.vertex(k));
+    for (int i = plan.slot_begin(k); i < plan.slot_begin(k + 1); ++i) {
+      const int s = plan.slot(i);
+      out += g[static_cast<size_t>(s / N)].template segment<3>(3 * (s % N));
+    }
+  });
 }
 
 // Adds the element Hessians hessian(e) (3N x 3N, already projected, J/m^2) to `assembly`, the same

@@ -169,24 +169,28 @@ const HessianAssembly::SparseMatrix& HessianAssembly::finish(bool* pattern_chang
   // Each entry sums its element values in value order, then the diagonal is added and fixed dofs
   // are made identity rows and columns: the operations of a serial scatter in value order, entry by
   // entry, so the result is the same for any thread count. A block's entries are summed together,
-  // so that its occurrences' values are read as contiguous runs.
+  // one occurrence (a contiguous run of 6 or 9 values) at a time, so that each run is read once.
   double* val = matrix_.valuePtr();
   const int* column_begin = matrix_.outerIndexPtr();
   const auto fixed = [&](int dof) { return !fixed_.empty() && fixed_[static_cast<size_t>(dof)]; };
   parallel_for_index(static_cast<int>(block_row_.size()), [&](int q) {
     const int u = block_row_[static_cast<size_t>(q)], w = block_column_[static_cast<size_t>(q)];
     const int k = q - block_first_[static_cast<size_t>(w)];  // position in column w (0: the diagonal block)
+    const int count = block_value_count(u, w);
     const size_t g0 = gather_begin_[static_cast<size_t>(q)], g1 = gather_begin_[static_cast<size_t>(q) + 1];
+    double sum[9] = {};  // by position in the run (kDiagonalOffset's for the diagonal block)
+    for (size_t g = g0; g < g1; ++g) {
+      const double* run = values_.data() + gather_value_[g];
+      for (int o = 0; o < count; ++o) sum[o] += run[o];
+    }
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) {
         if (k == 0 && i < j) continue;  // the upper part of a diagonal block is not stored
-        const int offset = k == 0 ? kDiagonalOffset[i][j] : 3 * i + j;
-        double sum = 0.0;
-        for (size_t g = g0; g < g1; ++g) sum += values_[gather_value_[g] + static_cast<size_t>(offset)];
+        double entry = sum[k == 0 ? kDiagonalOffset[i][j] : 3 * i + j];
         const int r = 3 * u + i, c = 3 * w + j;
-        if (r == c) sum += diagonal_[c];
-        if (fixed(r) || fixed(c)) sum = r == c ? 1.0 : 0.0;
-        val[column_begin[c] + (k == 0 ? i - j : (3 - j) + 3 * (k - 1) + i)] = sum;
+        if (r == c) entry += diagonal_[c];
+        if (fixed(r) || fixed(c)) entry = r == c ? 1.0 : 0.0;
+        val[column_begin[c] + (k == 0 ? i - j : (3 - j) + 3 * (k - 1) + i)] = entry;
       }
   });
   // Dofs of vertices in no element: the diagonal alone.

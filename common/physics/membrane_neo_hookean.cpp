@@ -204,6 +204,7 @@ NeoHookeanMembrane::NeoHookeanMembrane(const Faces& faces, const Positions& rest
                                        const MembraneMaterialParams& params)
     : params_(params) {
   min_dofs_ = build_triangle_rest("NeoHookeanMembrane", faces, rest, membrane_rest, faces_, rest_);
+  scatter_ = GradientScatterPlan::build<3>(num_faces(), [&](int f) { return faces_[static_cast<size_t>(f)]; });
 }
 
 void NeoHookeanMembrane::check_size(const Eigen::VectorXd& x) const {
@@ -246,14 +247,14 @@ void NeoHookeanMembrane::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd&
     throw std::invalid_argument("NeoHookeanMembrane::add_gradient: grad and x differ in size");
   const bool reuse = stress_key_.matches(x);
   add_element_gradients<3>(
-      num_faces(), [&](int f) { return faces_[f]; },
+      num_faces(),
       [&](int f) -> Vec<9> {
         if (!reuse) return neo_hookean_membrane_gradient(gather(x, f), rest_[f], params_);
         const Eigen::Matrix2d& S = stress_[static_cast<size_t>(f)];
         if (std::isnan(S(0, 0))) return Vec<9>::Constant(kNaN);
         return gradient_from_stress(edge_matrix(gather(x, f)), S, rest_[f], params_);
       },
-      grad);
+      scatter_, grad);
 }
 
 void NeoHookeanMembrane::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,

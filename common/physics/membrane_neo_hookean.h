@@ -39,6 +39,7 @@
 
 #include "geometry/mesh.h"
 #include "physics/energy_term.h"
+#include "physics/gradient_scatter_plan.h"
 #include "util/state_key.h"
 
 namespace pd {
@@ -105,6 +106,7 @@ class NeoHookeanMembrane : public EnergyTerm {
   std::vector<MembraneRest> rest_;
   MembraneMaterialParams params_;
   int min_dofs_ = 0;  // 3 * (largest vertex index + 1): x must be at least this long
+  GradientScatterPlan scatter_;  // the faces' gradient slots per vertex, for the parallel scatter
   // Each face's stress S (1/m^2) at value()'s last x, reused by add_gradient at the same x
   // (util/state_key.h); NaN for a degenerate face.
   mutable std::vector<Eigen::Matrix2d> stress_;
