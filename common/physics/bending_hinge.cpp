@@ -229,7 +229,7 @@ double HingeBending::value(const Eigen::VectorXd& x) const {
 void HingeBending::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
   const bool reuse = angles_key_.matches(x);
   add_element_gradients<4>(
-      static_cast<int>(hinges_.size()),
+      static_cast<int>(hinges_.size()), [&](int i) { return hinges_[i].v; },
       [&](int i) {
         const HingeFrame f(gather(x, hinges_[i]));
         return gradient_of(f, reuse ? angles_[static_cast<size_t>(i)] : angle_of(f), rest_[i], k_);

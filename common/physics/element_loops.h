@@ -42,14 +42,19 @@ void add_element_gradients(int count, const Verts& verts, const Gradient& gradie
 }
 
 // add_element_gradients with the scatter run per vertex on every thread (same bits as the serial
-// scatter): the element vertices are the plan's, which must have been built for these `count`
-// elements (throws std::logic_error when its element count differs).
-template <int N, class Gradient>
-void add_element_gradients(int count, const Gradient& gradient, const GradientScatterPlan& plan,
+// scatter; on one thread the serial scatter itself, which takes fewer instructions). `plan` must
+// have been built for these `count` elements and `verts` (throws std::logic_error when its element
+// count differs).
+template <int N, class Verts, class Gradient>
+void add_element_gradients(int count, const Verts& verts, const Gradient& gradient, const GradientScatterPlan& plan,
                            Eigen::VectorXd& grad) {
   if (plan.elements() != count)
     throw std::logic_error("add_element_gradients: a scatter plan built for " + std::to_string(plan.elements()) +
                            " elements, used for " + std::to_string(count));
+  if (effective_element_threads() == 1) {
+    add_element_gradients<N>(count, verts, gradient, grad);
+    return;
+  }
   std::vector<Eigen::Matrix<double, 3 * N, 1>> g(static_cast<size_t>(count));
   parallel_for_index(count, [&](int e) { g[static_cast<size_t>(e)] = gradient(e); });
   parallel_for_index(plan.vertices(), [&](int k) {

@@ -247,7 +247,7 @@ void NeoHookeanMembrane::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd&
     throw std::invalid_argument("NeoHookeanMembrane::add_gradient: grad and x differ in size");
   const bool reuse = stress_key_.matches(x);
   add_element_gradients<3>(
-      num_faces(),
+      num_faces(), [&](int f) { return faces_[f]; },
       [&](int f) -> Vec<9> {
         if (!reuse) return neo_hookean_membrane_gradient(gather(x, f), rest_[f], params_);
         const Eigen::Matrix2d& S = stress_[static_cast<size_t>(f)];

@@ -69,7 +69,7 @@ TEST(GradientScatterPlan, ScatterGivesTheSerialBitsOnOneTwoAndThreeThreads) {
   for (int threads : {1, 2, 3}) {
     set_element_threads(threads);
     Eigen::VectorXd planned = start;
-    add_element_gradients<3>(count, gradient, plan, planned);
+    add_element_gradients<3>(count, verts, gradient, plan, planned);
     EXPECT_EQ(std::memcmp(planned.data(), serial.data(), sizeof(double) * static_cast<size_t>(serial.size())), 0)
         << threads << " threads";
     ++compared;
@@ -84,7 +84,8 @@ TEST(GradientScatterPlan, RefusesAPlanBuiltForAnotherElementCount) {
   const auto tris = random_triangles(10, 8, 3);
   const auto plan = GradientScatterPlan::build<3>(10, [&](int e) { return tris[static_cast<size_t>(e)]; });
   Eigen::VectorXd grad = Eigen::VectorXd::Zero(24);
-  EXPECT_THROW(add_element_gradients<3>(9, [](int) { return Vec<9>::Zero().eval(); }, plan, grad),
+  const auto verts = [&](int e) { return tris[static_cast<size_t>(e)]; };
+  EXPECT_THROW(add_element_gradients<3>(9, verts, [](int) { return Vec<9>::Zero().eval(); }, plan, grad),
                std::logic_error);
 }
 
