@@ -213,17 +213,19 @@ Vec<12> HingeBending::gather(const Eigen::VectorXd& x, const Hinge& h) const {
 
 // The three loops run on every element thread with thread-count-independent results
 // (physics/element_loops.h).
-// value() keeps each hinge's angle for a gradient at the same x (util/state_key.h).
+// value() keeps each hinge's angle for a gradient at the same x (util/state_key.h), and its sum for
+// a second value() there (a frame's statistics ask at the state Newton accepted last).
 double HingeBending::value(const Eigen::VectorXd& x) const {
+  if (angles_key_.matches(x)) return total_;
   angles_key_.clear();
   angles_.resize(hinges_.size());
-  const double total = sum_element_energies(static_cast<int>(hinges_.size()), [&](int i) {
+  total_ = sum_element_energies(static_cast<int>(hinges_.size()), [&](int i) {
     const double theta = angle_of(HingeFrame(gather(x, hinges_[i])));
     angles_[static_cast<size_t>(i)] = theta;
     return energy_of(theta, rest_[i], k_);
   });
   angles_key_.set(x);
-  return total;
+  return total_;
 }
 
 void HingeBending::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {

@@ -135,8 +135,10 @@ class HingeBending : public EnergyTerm {
   std::vector<HingeRest> rest_;  // one per hinge, same order
   double k_;                     // N m
   GradientScatterPlan scatter_;  // the hinges' gradient slots per vertex, for the parallel scatter
-  // The angles (rad) of value()'s last x, reused by add_gradient at the same x (util/state_key.h).
+  // The angles (rad) of value()'s last x, reused by add_gradient at the same x (util/state_key.h),
+  // and their energy sum, reused by value() there.
   mutable std::vector<double> angles_;
+  mutable double total_ = 0.0;  // their energy sum (J)
   mutable StateKey angles_key_;
 };
 

@@ -224,10 +224,11 @@ Vec<9> NeoHookeanMembrane::gather(const Eigen::VectorXd& x, int face) const {
 // face keeps NaN, so that its gradient is NaN as neo_hookean_membrane_gradient's is.
 double NeoHookeanMembrane::value(const Eigen::VectorXd& x) const {
   check_size(x);
+  if (stress_key_.matches(x)) return total_;  // a second value() at the same x (frame statistics)
   stress_key_.clear();
   stress_.resize(faces_.size());
   // A degenerate face gives +inf, and so does the sum (energies are >= 0): the step is rejected.
-  const double total = sum_element_energies(num_faces(), [&](int f) {
+  total_ = sum_element_energies(num_faces(), [&](int f) {
     Eigen::Matrix2d& S = stress_[static_cast<size_t>(f)];
     Metric m;
     if (!deformed_metric(edge_matrix(gather(x, f)), rest_[f], m)) {
@@ -238,7 +239,7 @@ double NeoHookeanMembrane::value(const Eigen::VectorXd& x) const {
     return energy_from_metric(m, rest_[f], params_);
   });
   stress_key_.set(x);
-  return total;
+  return total_;
 }
 
 void NeoHookeanMembrane::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {

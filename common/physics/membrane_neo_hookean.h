@@ -110,6 +110,7 @@ class NeoHookeanMembrane : public EnergyTerm {
   // Each face's stress S (1/m^2) at value()'s last x, reused by add_gradient at the same x
   // (util/state_key.h); NaN for a degenerate face.
   mutable std::vector<Eigen::Matrix2d> stress_;
+  mutable double total_ = 0.0;  // the faces' energy sum (J) at that x, reused by value() there
   mutable StateKey stress_key_;
 };
 

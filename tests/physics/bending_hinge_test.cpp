@@ -251,8 +251,8 @@ TEST(HingeBending, ZeroEnergyAndGradientAtCurvedRestShape) {
   EXPECT_GT(term.value(flat), 0.0);
 }
 
-// value() keeps each hinge's angle for the gradient at the same x.
-TEST(HingeBending, GradientAfterValueEqualsTheGradientOfATermThatNeverEvaluatedAValue) {
+// value() keeps each hinge's angle for the gradient, and their sum for a value, at the same x.
+TEST(HingeBending, ValueAndGradientAfterValueEqualThoseOfATermThatNeverEvaluatedAValue) {
   TriMesh m = grid(3, 3, 0.5, 0.5);
   for (int i = 0; i < m.num_vertices(); ++i) m.V(i, 2) = 0.3 * m.V(i, 0) * m.V(i, 0) - 0.2 * m.V(i, 1);
   const std::vector<Hinge> hinges = hinges_of(m.F);
@@ -262,7 +262,7 @@ TEST(HingeBending, GradientAfterValueEqualsTheGradientOfATermThatNeverEvaluatedA
     x[i] += 0.1 * std::sin(5.0 * x[i - 2]);
     y[i] -= 0.2 * std::cos(3.0 * y[i - 1]);
   }
-  test::expect_gradient_after_value_is_a_fresh_gradient(term, twin, x, y);
+  test::expect_reuse_after_value_is_fresh(term, twin, x, y);
 }
 
 TEST(HingeBending, TermAssemblyMatchesElementSumsAndFiniteDifferences) {

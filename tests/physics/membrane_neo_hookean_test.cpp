@@ -284,9 +284,9 @@ TEST(NeoHookeanMembrane, AssembledTermGradientAndHessianMatchFiniteDifferences) 
   EXPECT_LT((acc - Eigen::VectorXd::Ones(x.size()) - grad).norm(), 1e-14 * grad.norm());
 }
 
-// value() keeps each face's stress for the gradient at the same x; a stretched state and one with
-// two collapsed faces (whose gradient entries are NaN either way).
-TEST(NeoHookeanMembrane, GradientAfterValueEqualsTheGradientOfATermThatNeverEvaluatedAValue) {
+// value() keeps each face's stress for the gradient, and its sum for a value, at the same x; a
+// stretched state and one with two collapsed faces (whose gradient entries are NaN either way).
+TEST(NeoHookeanMembrane, ValueAndGradientAfterValueEqualThoseOfATermThatNeverEvaluatedAValue) {
   const SmallMesh mesh;
   const NeoHookeanMembrane term(mesh.faces, mesh.rest, kCloth), twin(mesh.faces, mesh.rest, kCloth);
   std::mt19937 rng(22);
@@ -296,8 +296,8 @@ TEST(NeoHookeanMembrane, GradientAfterValueEqualsTheGradientOfATermThatNeverEval
   Eigen::VectorXd collapsed = x;
   collapsed.segment<3>(3 * 3) = collapsed.segment<3>(3 * 1);  // faces 0 and 1
   ASSERT_TRUE(test::term_gradient(twin, collapsed).hasNaN());
-  test::expect_gradient_after_value_is_a_fresh_gradient(term, twin, x, collapsed);
-  test::expect_gradient_after_value_is_a_fresh_gradient(term, twin, x, 1.1 * x);
+  test::expect_reuse_after_value_is_fresh(term, twin, x, collapsed);
+  test::expect_reuse_after_value_is_fresh(term, twin, x, 1.1 * x);
 }
 
 TEST(NeoHookeanMembrane, AssembledProjectedHessianIsPsdUnderCompression) {

@@ -65,19 +65,29 @@ TermBits term_bits(const EnergyTerm& term, const Eigen::VectorXd& x, HessianProj
   return bits;
 }
 
-void expect_gradient_after_value_is_a_fresh_gradient(const EnergyTerm& term, const EnergyTerm& twin,
-                                                     const Eigen::VectorXd& x, const Eigen::VectorXd& y) {
+void expect_reuse_after_value_is_fresh(const EnergyTerm& term, const EnergyTerm& twin, const Eigen::VectorXd& x,
+                                       const Eigen::VectorXd& y) {
   const Eigen::VectorXd fresh_x = term_gradient(twin, x), fresh_y = term_gradient(twin, y);
+  const double value_x = twin.value(x), value_y = twin.value(y);  // after the twin's gradients
   auto same = [](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
     return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())) == 0;
   };
+  auto same_value = [](double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; };
   ASSERT_FALSE(same(fresh_x, fresh_y)) << "x and y need different gradients";
+  ASSERT_FALSE(same_value(value_x, value_y)) << "x and y need different values";
+  int compared = 0;
   for (const Eigen::VectorXd* at : {&x, &y}) {
+    const char* name = at == &x ? "x" : "y";
     term.value(*at);
-    EXPECT_TRUE(same(term_gradient(term, x), fresh_x)) << "gradient at x after value at " << (at == &x ? "x" : "y");
+    EXPECT_TRUE(same(term_gradient(term, x), fresh_x)) << "gradient at x after value at " << name;
     term.value(*at);
-    EXPECT_TRUE(same(term_gradient(term, y), fresh_y)) << "gradient at y after value at " << (at == &x ? "x" : "y");
+    EXPECT_TRUE(same(term_gradient(term, y), fresh_y)) << "gradient at y after value at " << name;
+    term.value(*at);
+    EXPECT_TRUE(same_value(term.value(*at), at == &x ? value_x : value_y)) << "second value at " << name;
+    EXPECT_TRUE(same_value(term.value(at == &x ? y : x), at == &x ? value_y : value_x)) << "value after one at " << name;
+    compared += 4;
   }
+  EXPECT_EQ(compared, 8);
 }
 
 long expect_same_bits(const TermBits& a, const TermBits& b) {

@@ -46,12 +46,13 @@ TermBits term_bits(const EnergyTerm& term, const Eigen::VectorXd& x, HessianProj
 // returns how many doubles were compared (a caller asserts it is large enough to mean something).
 long expect_same_bits(const TermBits& a, const TermBits& b);
 
-// A term that keeps per-element results from value() for a gradient at the same x
-// (util/state_key.h) against `twin`, the same term built again that never evaluated a value: after
-// value(x) the gradient at x (reuse) and at y (no reuse), then after value(y) the gradient at x and at
-// y, each equal to the twin's bit for bit. x and y must have different gradients (asserted), so
-// stale reuse cannot pass.
-void expect_gradient_after_value_is_a_fresh_gradient(const EnergyTerm& term, const EnergyTerm& twin,
-                                                     const Eigen::VectorXd& x, const Eigen::VectorXd& y);
+// A term that keeps per-element results and their sum from value() for a gradient or a second
+// value() at the same x (util/state_key.h) against `twin`, the same term built again that never
+// evaluated a value: after value(x) the gradient at x (reuse) and at y (no reuse), then after
+// value(y) the same, and after each value() the values at that state (reuse) and at the other one,
+// all equal to the twin's bit for bit. x and y must have different gradients and values (asserted),
+// so stale reuse cannot pass.
+void expect_reuse_after_value_is_fresh(const EnergyTerm& term, const EnergyTerm& twin, const Eigen::VectorXd& x,
+                                       const Eigen::VectorXd& y);
 
 }  // namespace pd::test
