@@ -2,7 +2,8 @@
 // The three loops every element energy runs (value, gradient, Hessian), on several threads with
 // results independent of the thread count (util/parallel.h's rule): each element's value, gradient
 // or Hessian is computed in parallel into its own slot, and the sum, the scatter into the global
-// gradient and the assembly run in element order, exactly as the serial loops did.
+// gradient and the assembly add in element order, exactly as the serial loops did (the scatter
+// with a GradientScatterPlan does so per vertex, on every thread).
 //
 // Shapes shared by all three: `count` elements; verts(e) -> std::array<int, N> (the element's
 // global vertex indices, its local dofs ordered verts[0] xyz, verts[1] xyz, ...).

@@ -3,10 +3,12 @@
 //
 // The rule that keeps frames bit for bit the same for every thread count: a parallel loop body
 // writes only the outputs of its own index (one slot per element), and every reduction over
-// elements (energy sums, gradient scatters, Hessian assembly) runs afterwards in element order, as
-// the serial loop did. So a run with N threads does the same floating-point operations in the same
-// order as a run with one, and the speed-up comes from the per-element work (energy densities,
-// gradients, 9x9 / 12x12 Hessians and their eigen-projections), which dominates.
+// elements (energy sums, gradient scatters, Hessian assembly) adds each output's terms in element
+// order, as the serial loop did: serially, or in parallel over the outputs (one thread per global
+// entry or vertex, each summing its own terms in that order). So a run with N threads does the same
+// floating-point operations in the same order as a run with one, and the speed-up comes from the
+// per-element work (energy densities, gradients, 9x9 / 12x12 Hessians and their eigen-projections),
+// which dominates.
 //
 // The threads are oneTBB's. OpenMP is not used for this because CHOLMOD's own OpenMP regions are
 // held to one thread (util/process_setup.h) and OpenMP's limit is process-wide.
