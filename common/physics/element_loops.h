@@ -30,12 +30,19 @@ double sum_element_energies(int count, const Energy& energy) {
   return total;
 }
 
+// The element gradients gradient(e), e in [0, count), each computed into its own slot.
+template <int N, class Gradient>
+std::vector<Eigen::Matrix<double, 3 * N, 1>> element_gradients(int count, const Gradient& gradient) {
+  std::vector<Eigen::Matrix<double, 3 * N, 1>> g(static_cast<size_t>(count));
+  parallel_for_index(count, [&](int e) { g[static_cast<size_t>(e)] = gradient(e); });
+  return g;
+}
+
 // grad += the element gradients gradient(e) (Eigen::Matrix<double, 3N, 1>, J/m), scattered in
 // element order.
 template <int N, class Verts, class Gradient>
 void add_element_gradients(int count, const Verts& verts, const Gradient& gradient, Eigen::VectorXd& grad) {
-  std::vector<Eigen::Matrix<double, 3 * N, 1>> g(static_cast<size_t>(count));
-  parallel_for_index(count, [&](int e) { g[static_cast<size_t>(e)] = gradient(e); });
+  const auto g = element_gradients<N>(count, gradient);
   for (int e = 0; e < count; ++e) {
     const std::array<int, N> v = verts(e);
     for (int a = 0; a < N; ++a) grad.template segment<3>(3 * v[a]) += g[static_cast<size_t>(e)].template segment<3>(3 * a);
@@ -56,8 +63,7 @@ void add_element_gradients(int count, const Verts& verts, const Gradient& gradie
     add_element_gradients<N>(count, verts, gradient, grad);
     return;
   }
-  std::vector<Eigen::Matrix<double, 3 * N, 1>> g(static_cast<size_t>(count));
-  parallel_for_index(count, [&](int e) { g[static_cast<size_t>(e)] = gradient(e); });
+  const auto g = element_gradients<N>(count, gradient);
   parallel_for_index(plan.vertices(), [&](int k) {
     auto out = grad.template segment<3>(3 * plan.vertex(k));
     for (int i = plan.slot_begin(k); i < plan.slot_begin(k + 1); ++i) {

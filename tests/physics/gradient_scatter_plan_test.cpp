@@ -65,17 +65,14 @@ TEST(GradientScatterPlan, ScatterGivesTheSerialBitsOnOneTwoAndThreeThreads) {
   add_element_gradients<3>(count, verts, gradient, serial);
 
   const auto plan = GradientScatterPlan::build<3>(count, verts);
-  int compared = 0;
-  for (int threads : {1, 2, 3}) {
+  for (int threads : {1, 2, 3}) {  // 1: the serial scatter the overload keeps; 2, 3: the plan's
     set_element_threads(threads);
     Eigen::VectorXd planned = start;
     add_element_gradients<3>(count, verts, gradient, plan, planned);
     EXPECT_EQ(std::memcmp(planned.data(), serial.data(), sizeof(double) * static_cast<size_t>(serial.size())), 0)
         << threads << " threads";
-    ++compared;
   }
   set_element_threads(saved);
-  EXPECT_EQ(compared, 3);
   EXPECT_EQ(serial[3 * (n - 1)], start[3 * (n - 1)]);  // the vertex in no element is untouched
   EXPECT_NE(serial, start);
 }
