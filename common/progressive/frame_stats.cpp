@@ -10,6 +10,7 @@ FrameStats frame_stats(const FrameRecord& r) {
                {"exact_hessians", double(n.exact_hessians)},
                {"projection_fallbacks", double(n.projection_fallbacks)},
                {"extended_steps", double(n.extended_steps)},
+               {"exact_curvature_iterations", double(n.exact_curvature_iterations)},
                {"newton_converged", r.frame == 0 ? 1.0 : double(n.converged)},
                {"solve_seconds", r.seconds},
                {"assemble_seconds", n.assemble_seconds},

@@ -20,6 +20,12 @@ constexpr int kMaxPinRounds = 32;
 constexpr double kPinPullScale = 1e4;
 // Newton's velocity tolerance with friction, as a fraction of the friction's eps_v.
 constexpr double kFrictionToleranceFraction = 0.1;
+// Conjugate-gradient refinement of clamped steps on the exact Hessian (solver/exact_curvature_step.h):
+// at most 30 iterations, down to 1e-3 of the preconditioned residual. Most refinements stop after 1-2
+// iterations; 10 / 1e-2 and 100 / 1e-4 gave the same iteration counts on drape-gear and spin-sphere
+// within their run-to-run spread (docs/performance.md, "The exact curvature behind a clamped step").
+constexpr int kExactCurvatureIterations = 30;
+constexpr double kExactCurvatureTolerance = 1e-3;
 
 void accumulate(NewtonReport& total, const NewtonReport& part) {
   total.iterations += part.iterations;
@@ -27,6 +33,7 @@ void accumulate(NewtonReport& total, const NewtonReport& part) {
   total.exact_hessians += part.exact_hessians;
   total.projection_fallbacks += part.projection_fallbacks;
   total.extended_steps += part.extended_steps;
+  total.exact_curvature_iterations += part.exact_curvature_iterations;
   total.assemble_seconds += part.assemble_seconds;
   total.analyse_seconds += part.analyse_seconds;
   total.factorize_seconds += part.factorize_seconds;
@@ -165,6 +172,12 @@ FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v
   }
   ns.max_iterations = settings_.max_newton_iterations;
   ns.projection = settings_.projection;
+  // Only where the assembled Hessian is the potential's own: a coarse level's prolonged blocks are
+  // lagged, and refining the clamped step on them cost spin-sphere's preview 17% more iterations.
+  if (!sys_.prolongation) {
+    ns.exact_curvature_iterations = kExactCurvatureIterations;
+    ns.exact_curvature_tolerance = kExactCurvatureTolerance;
+  }
   const bool barrier = sys_.contact.has_barrier();
   if (barrier || sys_.prolongation)
     ns.after_iteration = [this, barrier](const Eigen::VectorXd& xi) {

@@ -3,6 +3,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "solver/exact_curvature_step.h"
+
 namespace pd {
 
 namespace {
@@ -44,6 +46,7 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
                              const NewtonSettings& s, HessianAssembly& hessian, CholmodSolver& solver) {
   NewtonReport r;
   double energy = ip.value(x);
+  const CholmodSolver::SparseMatrix* assembled = nullptr;  // the last assembled Hessian (in `hessian`)
   // Assembles the Hessian at x with element projection `p` and factorizes it (a diagonal shift
   // where indefinite only if `shift`); times go into the report.
   const auto assemble_and_factorize = [&](HessianProjection p, bool shift) {
@@ -51,6 +54,7 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     ip.hessian(x, p, hessian);
     bool pattern_changed = false;
     const auto& H = hessian.finish(&pattern_changed);
+    assembled = &H;
     r.assemble_seconds += since(t0);
     const bool ok = solver.factorize(H, pattern_changed, shift);
     r.analyse_seconds += solver.analyse_seconds();
@@ -75,6 +79,10 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
   // (2x, 4x, up to kMaxExtension, within the CCD bound) while the potential keeps decreasing.
   bool last_clamped = false;
   int clamped_growths = 0;  // consecutive clamped iterates whose step measure grew
+  // The exact Hessian of an iterate that fell back to the clamped one, kept for its step's refinement
+  // (the assembly's matrix is overwritten by the clamped reassembly).
+  CholmodSolver::SparseMatrix exact;
+  const bool refine_clamped = exact_first && s.exact_curvature_iterations > 0;
   for (r.iterations = 0; r.iterations < s.max_iterations;) {
     auto t0 = Clock::now();
     const Eigen::VectorXd g = ip.gradient(x);
@@ -83,13 +91,20 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
 
     bool factorized;
     bool clamped = false;  // ExactFirst only: this iterate's Hessian is the clamped one
+    bool have_exact = false;  // `exact` holds this iterate's exact Hessian
     if (!exact_first) {
       factorized = assemble_and_factorize(s.projection, true);
     } else if (try_exact && assemble_and_factorize(HessianProjection::None, false)) {
       factorized = true;
       ++r.exact_hessians;
     } else {
-      if (try_exact) ++r.projection_fallbacks;
+      if (try_exact) {
+        ++r.projection_fallbacks;
+        if (refine_clamped) {
+          exact = *assembled;
+          have_exact = true;
+        }
+      }
       clamped = true;
       factorized = assemble_and_factorize(HessianProjection::Clamp, true);
     }
@@ -98,7 +113,13 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
       return r;
     }
     t0 = Clock::now();
-    const Eigen::VectorXd p = -solver.solve(g);
+    Eigen::VectorXd p = -solver.solve(g);
+    if (have_exact) {
+      ExactCurvatureStep refined = exact_curvature_step(exact, solver, g, p, s.exact_curvature_iterations,
+                                                        s.exact_curvature_tolerance);
+      p = std::move(refined.step);
+      r.exact_curvature_iterations += refined.iterations;
+    }
     r.solve_seconds += since(t0);
     ++r.iterations;
 

@@ -28,11 +28,20 @@ struct NewtonSettings {
   // Element Hessian projection. ExactFirst: at every iterate the exact Hessian, reassembled with
   // Clamp only when CHOLMOD finds the assembled system indefinite; an iterate after a capped step
   // (max_step < 1) is clamped without trying, and a full clamped step after two clamped iterates
-  // whose steps grew is extended while the potential decreases (leaving a saddle).
+  // whose steps grew is extended while the potential decreases (leaving a saddle); with
+  // exact_curvature_iterations, the clamped step of an iterate whose exact Hessian was indefinite is
+  // refined on the exact Hessian (below).
   // Clamping every indefinite element overestimates the curvature along buckling directions of a
   // compressed sheet, which the inertia term alone usually keeps positive; Newton then creeps
   // along them at a linear rate (docs/performance.md, "Which Hessian projection").
   HessianProjection projection = HessianProjection::Clamp;
+  // ExactFirst only, and only where the assembled Hessian is the potential's true one (not a coarse
+  // level's lagged prolonged blocks): an iterate whose exact Hessian was indefinite refines its
+  // clamped step by up to this many conjugate-gradient iterations on the exact Hessian, preconditioned
+  // by the clamped factorization (solver/exact_curvature_step.h); 0 keeps the clamped step. The
+  // relative tolerance is on the preconditioned residual's norm.
+  int exact_curvature_iterations = 0;
+  double exact_curvature_tolerance = 1e-3;
   // Called with every accepted iterate; it may change the potential's parameters (IPC's adaptive
   // barrier stiffness) and returns true when it did, so that the potential is evaluated afresh
   // only then (a full evaluation per iteration would be wasted while nothing changes).
@@ -49,6 +58,9 @@ struct NewtonReport {
   // ExactFirst only: full steps extended (2x-8x) because the clamped steps before them kept growing,
   // the sign of Newton leaving a saddle (newton.cpp)
   int extended_steps = 0;
+  // Conjugate-gradient iterations that refined clamped steps on the exact Hessian
+  // (exact_curvature_iterations)
+  int exact_curvature_iterations = 0;
   bool converged = false;
   // "converged" | "max_iterations" | "no_descent" | "factorization_failed", or "pins_blocked" (set
   // by the level stepper when scripted pins could not reach their targets)

@@ -177,12 +177,14 @@ TEST(LevelStepper, NewtonConvergesQuadraticallyOnAHangingSheetStep) {
   EXPECT_GE(checked, 1) << "no iteration in the quadratic regime; step measures: " << trace;
 }
 
-TEST(LevelStepper, ExactFirstSolvesASaggingSheetInNoMoreIterationsThanClampAndCountsFallbacks) {
+TEST(LevelStepper, ExactFirstSolvesASaggingSheetInNoMoreIterationsThanClampAndRefinesItsFallbacks) {
   // A sheet held at its two top corners sags into folds: compressed membrane triangles and bent
   // hinges with indefinite element Hessians, the case exact_first is for (docs/performance.md,
   // "Which Hessian projection"). Same equations, same tolerance: the frames agree to within the
   // motion's sensitivity, and the exact Hessian must not cost iterations.
-  const auto run = [](HessianProjection projection, int* iterations, int* fallbacks, int* exact) {
+  // A direct system's Hessian is the potential's own, so the stepper refines the fallbacks' clamped
+  // steps on it (solver/exact_curvature_step.h).
+  const auto run = [](HessianProjection projection, int* iterations, int* fallbacks, int* exact, int* refined) {
     // Long steps (h = 0.05 s) so the inertia term's M / h^2 no longer keeps every assembled
     // system positive definite.
     Scene scene = make_scene(0.05, 20, Vec3(0, -9.81, 0));
@@ -192,22 +194,28 @@ TEST(LevelStepper, ExactFirstSolvesASaggingSheetInNoMoreIterationsThanClampAndCo
     scene.objects[0].pins.push_back(pins);
     scene.solver.projection = projection;
     SceneSystem sys = build_scene_system(scene);
-    *iterations = *fallbacks = *exact = 0;
+    *iterations = *fallbacks = *exact = *refined = 0;
     return run_scene(scene, sys, nullptr, [&](const FrameRecord& r) {
       *iterations += r.newton.iterations;
       *fallbacks += r.newton.projection_fallbacks;
       *exact += r.newton.exact_hessians;
+      *refined += r.newton.exact_curvature_iterations;
     });
   };
-  int clamp_its = 0, clamp_fallbacks = 0, clamp_exact = 0, exact_its = 0, exact_fallbacks = 0, exact_solves = 0;
-  const Eigen::VectorXd clamp = run(HessianProjection::Clamp, &clamp_its, &clamp_fallbacks, &clamp_exact);
-  const Eigen::VectorXd exact = run(HessianProjection::ExactFirst, &exact_its, &exact_fallbacks, &exact_solves);
-  std::printf("sagging sheet, 20 steps: clamp %d Newton iterations, exact_first %d (%d exact, %d fallbacks)\n",
-              clamp_its, exact_its, exact_solves, exact_fallbacks);
+  int clamp_its = 0, clamp_fallbacks = 0, clamp_exact = 0, clamp_refined = 0;
+  int exact_its = 0, exact_fallbacks = 0, exact_solves = 0, exact_refined = 0;
+  const Eigen::VectorXd clamp = run(HessianProjection::Clamp, &clamp_its, &clamp_fallbacks, &clamp_exact, &clamp_refined);
+  const Eigen::VectorXd exact =
+      run(HessianProjection::ExactFirst, &exact_its, &exact_fallbacks, &exact_solves, &exact_refined);
+  std::printf("sagging sheet, 20 steps: clamp %d Newton iterations, exact_first %d (%d exact, %d fallbacks, "
+              "%d CG iterations refining them)\n",
+              clamp_its, exact_its, exact_solves, exact_fallbacks, exact_refined);
   EXPECT_EQ(clamp_exact, 0) << "only exact_first counts exact solves";
   EXPECT_GT(exact_solves, 0) << "the exact Hessian must be used, or this compares clamp with itself";
   EXPECT_EQ(clamp_fallbacks, 0) << "only exact_first falls back";
   EXPECT_GT(exact_fallbacks, 0) << "the long steps must make an exact system indefinite, or the fallback is untested";
+  EXPECT_EQ(clamp_refined, 0) << "clamp never assembles the exact Hessian";
+  EXPECT_GT(exact_refined, 0) << "the stepper must turn the refinement on for a direct system";
   EXPECT_LE(exact_its, clamp_its);
   EXPECT_LT((clamp - exact).lpNorm<Eigen::Infinity>(), 1e-3) << "m, same equations and tolerance";
 }

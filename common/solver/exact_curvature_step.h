@@ -1,0 +1,38 @@
+#pragma once
+// A Newton step on the exact Hessian, preconditioned by the clamped one (issue 16).
+//
+// Where the assembled exact Hessian H is indefinite, Newton solves with the clamped Hessian C
+// (every element's negative eigenvalues set to zero). C = H + N with N >= 0 overestimates the
+// curvature wherever a compressed triangle or hinge has a negative part, so the clamped step is too
+// short along soft but stable directions, and Newton creeps there at a linear rate (spin-sphere's
+// finest refinement: one or two hanging vertices at a time, the step measure falling about 0.87x per
+// iterate; docs/performance.md, "The exact curvature behind a clamped step").
+//
+// This refines the clamped step by conjugate gradients on H p = -g with C's factorization as the
+// preconditioner, started from p = 0 so that the first iterate is the clamped step scaled to the
+// minimum of the quadratic model along it. Steihaug's rule ends it at the first direction of
+// non-positive curvature under H, keeping the last iterate (every iterate so far is a descent
+// direction of the model); if that happens on the first direction, the clamped step is returned
+// unchanged. C's spectrum relative to H clusters at 1 except along the few clamped modes, so a few
+// iterations usually reach the tolerance.
+#include <Eigen/Core>
+
+#include "solver/cholmod_solver.h"
+
+namespace pd {
+
+struct ExactCurvatureStep {
+  Eigen::VectorXd step;   // the refined step (m), or the clamped step when it was not refined
+  int iterations = 0;     // conjugate-gradient iterations that changed the step
+  bool negative_curvature = false;  // it stopped at a direction of non-positive curvature under H
+};
+
+// exact_lower: the exact Hessian H (lower triangle, as assembled; fixed dofs are identity rows);
+// clamped: C's factorization; g: the potential's gradient (J/m, fixed dofs zero); clamped_step:
+// -C^{-1} g. Stops when the preconditioned residual r^T C^{-1} r falls below tolerance^2 times its
+// start value, at non-positive curvature, or after max_iterations.
+ExactCurvatureStep exact_curvature_step(const CholmodSolver::SparseMatrix& exact_lower, const CholmodSolver& clamped,
+                                        const Eigen::VectorXd& g, const Eigen::VectorXd& clamped_step,
+                                        int max_iterations, double tolerance);
+
+}  // namespace pd
