@@ -2,6 +2,7 @@
 // independent CGAL intersection checker (tests/support/intersection_checker.h), for runs too long
 // for the test suite. Prints one line per intersecting frame and a summary; exit code 0 when every
 // stored frame is intersection-free, 1 when some frame is not, 2 on bad input.
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -31,6 +32,13 @@ int main(int argc, char** argv) {
           ++bad;
           std::printf("level %d frame %d: %d intersecting face pairs, %zu degenerate faces\n", level, t,
                       report.intersecting_pairs, report.degenerate_faces.size());
+          // The first pairs by their faces' vertex indices, to find the objects and the place.
+          const std::size_t shown = std::min<std::size_t>(report.face_pairs.size(), 8);
+          for (std::size_t k = 0; k < shown; ++k) {
+            const auto [f, g] = report.face_pairs[k];
+            std::printf("  faces %d (%d %d %d) and %d (%d %d %d)\n", f, F(f, 0), F(f, 1), F(f, 2), g, F(g, 0),
+                        F(g, 1), F(g, 2));
+          }
         }
       }
     }
