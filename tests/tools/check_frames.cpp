@@ -1,7 +1,8 @@
 // pd_check_frames FILE.h5 [--level L]: checks every stored frame of a frame file with the
 // independent CGAL intersection checker (tests/support/intersection_checker.h), for runs too long
-// for the test suite. Prints one line per intersecting frame and a summary; exit code 0 when every
-// stored frame is intersection-free, 1 when some frame is not, 2 on bad input.
+// for the test suite. Prints one line per intersecting frame (then its first eight face pairs, by
+// vertex index) and a summary; exit code 0 when every stored frame is intersection-free, 1 when some
+// frame is not, 2 on bad input.
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
