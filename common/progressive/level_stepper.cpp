@@ -21,11 +21,11 @@ constexpr double kPinPullScale = 1e4;
 // Newton's velocity tolerance with friction, as a fraction of the friction's eps_v.
 constexpr double kFrictionToleranceFraction = 0.1;
 // Conjugate-gradient refinement of clamped steps on the exact Hessian (solver/exact_curvature_step.h):
-// at most 30 iterations, down to 1e-3 of the preconditioned residual. Most refinements stop after 1-2
-// iterations; 10 / 1e-2 and 100 / 1e-4 gave the same iteration counts on drape-gear and spin-sphere
-// within their run-to-run spread (docs/performance.md, "The exact curvature behind a clamped step").
+// at most 30 iterations, down to NewtonSettings' default tolerance (1e-3 of the preconditioned
+// residual). Most refinements stop after 1-2 iterations; 10 / 1e-2 and 100 / 1e-4 gave the same
+// Newton iteration counts on drape-gear and spin-sphere within the spread that any change of the
+// steps brings (docs/performance.md, "The exact curvature behind a clamped step").
 constexpr int kExactCurvatureIterations = 30;
-constexpr double kExactCurvatureTolerance = 1e-3;
 
 void accumulate(NewtonReport& total, const NewtonReport& part) {
   total.iterations += part.iterations;
@@ -174,10 +174,7 @@ FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v
   ns.projection = settings_.projection;
   // Only where the assembled Hessian is the potential's own: a coarse level's prolonged blocks are
   // lagged, and refining the clamped step on them cost spin-sphere's preview 17% more iterations.
-  if (!sys_.prolongation) {
-    ns.exact_curvature_iterations = kExactCurvatureIterations;
-    ns.exact_curvature_tolerance = kExactCurvatureTolerance;
-  }
+  if (!sys_.prolongation) ns.exact_curvature_iterations = kExactCurvatureIterations;
   const bool barrier = sys_.contact.has_barrier();
   if (barrier || sys_.prolongation)
     ns.after_iteration = [this, barrier](const Eigen::VectorXd& xi) {
