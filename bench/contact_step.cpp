@@ -464,7 +464,7 @@ void run(const std::string& which, int cells, const Options& opt) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  limit_library_threads(argv);
+  configure_numerical_libraries(argv);
   Options opt;
   std::vector<std::string> scenes;
   std::vector<int> sizes;

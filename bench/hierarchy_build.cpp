@@ -279,8 +279,8 @@ struct Outcome {
 
 // safe_upsample in a child process, so that a run longer than `cap` seconds can be stopped (the
 // library call has no cancellation). The child works on a copy-on-write image of this process, so
-// its timing is that of an ordinary call. OpenMP is limited to one thread (limit_library_threads), so
-// no thread pool is lost by fork.
+// its timing is that of an ordinary call. OpenMP is limited to one thread
+// (configure_numerical_libraries), so no thread pool is lost by fork.
 Outcome upsample_forked(const UpsamplingLevel& level, const Positions& x, const Positions& target, double cap) {
   int fd[2];
   if (pipe(fd) != 0) {
@@ -466,7 +466,7 @@ double run_size(const std::string& shape, int cells, const Options& opt, std::ve
 }  // namespace
 
 int main(int argc, char** argv) {
-  limit_library_threads(argv);
+  configure_numerical_libraries(argv);
   const Options opt = parse(argc, argv);
   std::printf("budget %.0f s per state and size (skips larger sizes after a slower one), cap %.0f s per "
               "upsampling call\n", opt.budget, opt.cap);

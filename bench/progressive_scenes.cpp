@@ -81,7 +81,7 @@ std::pair<double, double> deviation(const Scene& scene, const LevelRun& a, const
 }  // namespace
 
 int main(int argc, char** argv) {
-  limit_library_threads(argv);
+  configure_numerical_libraries(argv);
   std::vector<std::string> files;
   int frames = -1, levels = -1;
   LevelTaskOptions options;

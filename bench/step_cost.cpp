@@ -28,7 +28,7 @@
 using namespace pd;
 
 int main(int argc, char** argv) {
-  limit_library_threads(argv);
+  configure_numerical_libraries(argv);
   std::vector<int> sizes;
   HessianProjection projection = HessianProjection::ExactFirst;  // the scene default
   for (int i = 1; i < argc; ++i) {

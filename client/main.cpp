@@ -182,7 +182,7 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  pd::limit_library_threads(argv);
+  pd::configure_numerical_libraries(argv);
   CLI::App app{"pd: progressive cloth and shell animation"};
   app.require_subcommand(1);
 

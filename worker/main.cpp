@@ -37,7 +37,7 @@ std::string slurm_job_from_environment() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  pd::limit_library_threads(argv);
+  pd::configure_numerical_libraries(argv);
   CLI::App app{"pd-worker: solves progressive-dynamics tasks for a pd-scheduler"};
   pd::worker::WorkerOptions options;
   app.add_option("--connect", options.endpoint, "The scheduler's worker endpoint, e.g. tcp://127.0.0.1:7400")

@@ -13,6 +13,7 @@
 #include <zmq.hpp>
 
 #include "farm/messaging.h"
+#include "util/process_setup.h"
 #include "worker/task_runner.h"
 
 #ifndef PD_VERSION
@@ -169,7 +170,8 @@ class Session {
     welcomed_ = true;
     worker_id_ = m.worker;
     if (m.heartbeat_ms > 0) heartbeat_ = std::chrono::milliseconds(m.heartbeat_ms);
-    log_line(options_, "connected", options_.endpoint + " as worker " + std::to_string(m.worker));
+    log_line(options_, "connected", options_.endpoint + " as worker " + std::to_string(m.worker) +
+                                         " (OpenBLAS kernel " + blas_kernel_in_use() + ")");
   }
   void on(protocol::AssignTask& m) {
     if (runner_.busy()) {
