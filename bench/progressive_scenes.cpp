@@ -19,12 +19,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <map>
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
+#include "bench_main.h"
 #include "progressive/consistency.h"
 #include "progressive/level_task.h"
 #include "scene/scene_file.h"
@@ -78,28 +79,24 @@ std::pair<double, double> deviation(const Scene& scene, const LevelRun& a, const
   return {worst, sum / static_cast<double>(a.com.size())};
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  configure_numerical_libraries(argv);
-  std::vector<std::string> files;
+int run(int argc, char** argv) {
+  CLI::App app{"pd_bench_progressive: speed against consistency of Progressive Dynamics (see the source's header)"};
+  std::vector<std::string> files = {"scenes/cube-trampoline.json", "scenes/flag.json",      "scenes/drape-gear.json",
+                                    "scenes/basket.json",          "scenes/ball-drop.json", "scenes/spin-sphere.json"};
   int frames = -1, levels = -1;
+  std::string hessian = "auto";
+  app.add_option("scenes", files, "Scene files (default: the six progressive scenes of scenes/)");
+  app.add_option("--frames", frames, "Frames to run (default: each scene's)")->check(CLI::Range(1, 1000000));
+  app.add_option("--levels", levels, "Override every scene's hierarchy.levels")->check(CLI::Range(1, 32));
+  app.add_option("--hessian", hessian, "The prolonged Hessian: auto, galerkin, lagged, coarse or coarse-first");
+  CLI11_PARSE(app, argc, argv);
   LevelTaskOptions options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--frames" && i + 1 < argc) {
-      frames = std::atoi(argv[++i]);
-    } else if (a == "--levels" && i + 1 < argc) {
-      levels = std::atoi(argv[++i]);
-    } else if (a == "--hessian" && i + 1 < argc) {
-      options.system.hessian = parse_level_hessian(argv[++i]);
-    } else {
-      files.push_back(a);
-    }
+  try {
+    options.system.hessian = parse_level_hessian(hessian);
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "pd_bench_progressive: --hessian: %s\n", e.what());
+    return 2;
   }
-  if (files.empty())
-    files = {"scenes/cube-trampoline.json", "scenes/flag.json",   "scenes/drape-gear.json",
-             "scenes/basket.json",          "scenes/ball-drop.json", "scenes/spin-sphere.json"};
 
   std::vector<std::string> level_rows, scene_rows;
   for (const std::string& file : files) {
@@ -176,4 +173,11 @@ int main(int argc, char** argv) {
               "progressive finest vs direct finest (mm) |\n| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
   for (const std::string& r : scene_rows) std::printf("%s\n", r.c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  configure_numerical_libraries(argv);
+  return pd::bench::run_reporting_errors("pd_bench_progressive", run, argc, argv);
 }

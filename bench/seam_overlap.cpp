@@ -17,17 +17,18 @@
 #include <limits>
 #include <cstdio>
 #include <map>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "bench_main.h"
 #include "hierarchy/scene_hierarchy.h"
 #include "progressive/error_measures.h"
 #include "progressive/level_task.h"
 #include "scene/scene_file.h"
+#include "util/process_setup.h"
 
 namespace {
 
@@ -54,21 +55,19 @@ double max_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   return d;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   CLI::App app{"pd_bench_seam_overlap: seam jitter of a vertical start with an overlap"};
-  std::string scene_path, overlaps_text = "0,2,4,8";
+  std::string scene_path;
+  std::vector<int> overlaps{0, 2, 4, 8};
   int frames = 0, seam = 0, level = -1;
   app.add_option("scene", scene_path, "Scene file")->required();
-  app.add_option("--frames", frames, "Frames N")->required()->check(CLI::PositiveNumber);
-  app.add_option("--seam", seam, "Seam frame a (the subset (a, N] starts there)")->required()->check(CLI::PositiveNumber);
-  app.add_option("--overlaps", overlaps_text, "Overlaps m to try, frames");
+  app.add_option("--frames", frames, "Frames N")->required()->check(CLI::Range(1, 1000000));
+  app.add_option("--seam", seam, "Seam frame a (the subset (a, N] starts there)")->required()->check(CLI::Range(1, 1000000));
+  app.add_option("--overlaps", overlaps, "Overlaps m to try, frames, comma-separated (default: 0,2,4,8)")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 1000000));
   app.add_option("--level", level, "The level whose subset is measured (default: the finest; >= 1)");
   CLI11_PARSE(app, argc, argv);
-  std::vector<int> overlaps;
-  std::stringstream list(overlaps_text);
-  for (std::string item; std::getline(list, item, ',');) overlaps.push_back(std::stoi(item));
   if (seam + 2 > frames) {
     std::fprintf(stderr, "--seam: needs seam + 2 <= frames\n");
     return 2;
@@ -138,4 +137,11 @@ int main(int argc, char** argv) {
   std::printf("single run total %.2f s\n", total);
   for (const nlohmann::json& r : results) std::printf("%s\n", r.dump().c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  pd::configure_numerical_libraries(argv);
+  return pd::bench::run_reporting_errors("pd_bench_seam_overlap", run, argc, argv);
 }

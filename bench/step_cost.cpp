@@ -15,10 +15,12 @@
 // and two factorizations, both counted in the per-iteration columns).
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
+#include "bench_main.h"
 #include "geometry/shapes.h"
 #include "progressive/level_stepper.h"
 #include "util/fnv1a.h"
@@ -27,24 +29,24 @@
 
 using namespace pd;
 
-int main(int argc, char** argv) {
-  configure_numerical_libraries(argv);
-  std::vector<int> sizes;
+namespace {
+
+int run(int argc, char** argv) {
+  CLI::App app{"pd_bench_step_cost: the cost of one implicit step of a hanging sheet (see the source's header)"};
+  std::vector<int> sizes{31, 77, 157};
+  int threads = 0;
   HessianProjection projection = HessianProjection::ExactFirst;  // the scene default
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--threads" && i + 1 < argc) {
-      set_element_threads(std::atoi(argv[++i]));
-    } else if (a == "--projection" && i + 1 < argc) {
-      if (!parse_hessian_projection(argv[++i], projection)) {
-        std::fprintf(stderr, "pd_bench_step_cost: --projection: unknown '%s'\n", argv[i]);
-        return 2;
-      }
-    } else {
-      sizes.push_back(std::atoi(argv[i]));
-    }
+  std::string projection_name = to_string(projection);
+  app.add_option("cells", sizes, "Cells per side of each square sheet (default: 31 77 157)")
+      ->check(CLI::Range(1, 4000));
+  app.add_option("--threads", threads, "Element-loop threads (default: every core)")->check(CLI::Range(1, 1024));
+  app.add_option("--projection", projection_name, "solver.hessian_projection (default: exact_first)");
+  CLI11_PARSE(app, argc, argv);
+  if (!parse_hessian_projection(projection_name, projection)) {
+    std::fprintf(stderr, "pd_bench_step_cost: --projection: unknown '%s'\n", projection_name.c_str());
+    return 2;
   }
-  if (sizes.empty()) sizes = {31, 77, 157};
+  if (threads > 0) set_element_threads(threads);
   std::printf("element threads: %d, hessian projection: %s\n", effective_element_threads(), to_string(projection));
   const int steps = 5;
   std::printf("%8s %8s %6s %10s %10s %10s %10s %10s %10s %10s %10s %8s %18s\n", "vertices", "faces", "steps",
@@ -96,4 +98,11 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(hash.value()));
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  configure_numerical_libraries(argv);
+  return pd::bench::run_reporting_errors("pd_bench_step_cost", run, argc, argv);
 }
