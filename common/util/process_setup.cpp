@@ -10,9 +10,11 @@ extern "C" char* openblas_get_corename(void);
 namespace pd {
 
 namespace {
-// Sets `name` to `value` when it is unset; true when it was set here.
+// Sets `name` to `value` when it is unset or empty (both libraries read an empty value as unset);
+// true when it was set here.
 bool set_if_unset(const char* name, const char* value) {
-  return std::getenv(name) == nullptr && setenv(name, value, 1) == 0;
+  const char* current = std::getenv(name);
+  return (current == nullptr || *current == '\0') && setenv(name, value, 1) == 0;
 }
 }  // namespace
 

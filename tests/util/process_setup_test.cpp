@@ -4,9 +4,13 @@
 
 #include <strings.h>
 
+#include <chrono>
 #include <cstdlib>
+#include <filesystem>
 
 #include <gtest/gtest.h>
+
+#include "support/process.h"
 
 namespace pd {
 namespace {
@@ -38,6 +42,17 @@ TEST(ProcessSetup, EveryAvx2FmaCpuRunsOpenBlasHaswellKernel) {
   const char* named = std::getenv("OPENBLAS_CORETYPE");
   ASSERT_NE(named, nullptr);
   EXPECT_EQ(strcasecmp(blas_kernel_in_use(), named), 0) << "in use: " << blas_kernel_in_use() << ", named: " << named;
+}
+
+// An empty variable is unset to OpenBLAS, which then picks its own kernel: it must be set too. The
+// test above, run in a child started with OPENBLAS_CORETYPE="", finds the kernel it names.
+TEST(ProcessSetup, AnEmptyKernelVariableIsSetLikeAnUnsetOne) {
+  const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
+  const test::RunResult r =
+      test::run({self, "--gtest_filter=ProcessSetup.EveryAvx2FmaCpuRunsOpenBlasHaswellKernel"}, std::chrono::seconds(60),
+                {{"OPENBLAS_CORETYPE", ""}});
+  EXPECT_EQ(r.exit_code, 0) << r.describe();
+  EXPECT_NE(r.out.find("[  PASSED  ] 1 test"), std::string::npos) << r.describe();
 }
 
 }  // namespace
