@@ -20,11 +20,15 @@ Material, matched term by term (Codim-IPC's MEMBRANE.h and its hinge):
     1e3 * t = 0.318 J/m^2 per rest area here (physics/strain_limit.h). --our-strain-band keeps our
     defaults instead (band from 1.0547, kappa_s = E t = 2.61 J/m^2): a different material.
 
-Prints per run (with and without friction): Newton iterations per step and solve seconds per step
-(frame statistics), on one thread. Pause other processes for the seconds to mean anything.
+Prints per run (with and without friction, and per solver tolerance if given): Newton iterations per
+step and solve seconds per step (frame statistics), on one thread. Pause other processes for the
+seconds to mean anything. With --reference-tolerance, also the accuracy of each run: the largest and
+the RMS distance of the cloth's vertices to a run at that (tight) tolerance, at the middle and the
+last step (speed against error for the stopping rule; the same measure of Codim-IPC's runs against
+its own tight run is what "equal accuracy" compares).
 
 Usage: bench/codim_cloth_sphere.py BUILD_DIR OUT_DIR CODIM_MESH_DIR [--steps N] [--time-step H]
-       [--friction MU ...] [--our-strain-band]
+       [--friction MU ...] [--our-strain-band] [--tolerances TOL ...] [--reference-tolerance TOL]
 """
 import argparse
 import json
@@ -39,16 +43,17 @@ MESHES = {"cloth": "square57.obj", "sphere": "sphere1K_0.3.obj", "floor": "squar
 
 
 THICKNESS = 0.318e-3  # m
+CLOTH_VERTICES = 3249  # square57.obj; the cloth is the scene's first object, so its rows come first
 
 
-def scene(steps, h, friction, codim_strain_band=True):
+def scene(steps, h, friction, codim_strain_band=True, tolerance=None):
     strain_limit = {"limit": 1.0608}
     if codim_strain_band:
         strain_limit.update({"barrier_start": 1.0, "stiffness": 1e3 * THICKNESS})
     pairs = [{"objects": ["cloth", "sphere"], "friction": friction},
              {"objects": ["cloth", "floor"], "friction": friction},
              {"objects": ["cloth", "cloth"], "friction": 0.25 * friction}]
-    return {
+    d = {
         "format_version": 1,
         "name": "codim-cloth-sphere",
         "description": "Codim-IPC's FEMShell cloth on sphere (test 6, square57), see bench/codim_cloth_sphere.py",
@@ -66,6 +71,33 @@ def scene(steps, h, friction, codim_strain_band=True):
              "transform": {"translation": [0, -0.16, 0]}, "obstacle": True},
         ],
     }
+    if tolerance is not None:
+        d["solver"] = {"tolerance": tolerance}
+    return d
+
+
+def run(pd, out_dir, a, friction, tolerance):
+    """One direct run; returns its finest level's read_levels() record."""
+    tag = f"mu{friction}" + ("" if tolerance is None else f"-tol{tolerance:g}")
+    path = os.path.join(out_dir, f"codim-cloth-sphere-{tag}.json")
+    with open(path, "w") as f:
+        json.dump(scene(a.steps, a.time_step, friction, not a.our_strain_band, tolerance), f, indent=1)
+    out = os.path.join(out_dir, f"codim-cloth-sphere-{tag}.h5")
+    subprocess.run([pd, "simulate", path, "--mode", "direct", "--threads", "1", "--out", out, "--force",
+                    "--quiet", "--allow-unconverged"], check=True)
+    r = scene_variants.read_levels(out)
+    return r[max(r)]
+
+
+def cloth_distances(positions, reference, steps):
+    """Largest and RMS distance (m) of the cloth's vertices (the scene's first object) to the
+    reference's at each of `steps`."""
+    cloth = slice(0, CLOTH_VERTICES)
+    out = []
+    for t in steps:
+        d = np.linalg.norm(positions[t, cloth] - reference[t, cloth], axis=1)
+        out.append((float(d.max()), float(np.sqrt(np.mean(d * d)))))
+    return out
 
 
 def main():
@@ -79,6 +111,10 @@ def main():
                     help="our default strain-limit band and stiffness instead of Codim-IPC's")
     ap.add_argument("--friction", type=float, nargs="+", default=[0.4, 0.0],
                     help="friction coefficients to run (cloth-cloth gets a quarter)")
+    ap.add_argument("--tolerances", type=float, nargs="+", default=None,
+                    help="solver.tolerance values to run (1/s, times the bounding-box diagonal); default: the scene's")
+    ap.add_argument("--reference-tolerance", type=float, default=None,
+                    help="also run this tolerance and print each run's cloth distance to it at the middle and last step")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     for name in MESHES.values():  # the scene's paths are relative to its folder
@@ -87,20 +123,23 @@ def main():
             os.remove(link)
         os.symlink(os.path.abspath(os.path.join(a.meshes, name)), link)
     pd = os.path.join(a.build, "client", "pd")
-    print(f"| friction | steps | h (s) | Newton its/step | solve s/step | s per iteration | unconverged |")
-    print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    checked = [a.steps // 2, a.steps]
+    header = "| friction | tolerance | steps | h (s) | Newton its/step | solve s/step | s per iteration | unconverged |"
+    if a.reference_tolerance is not None:
+        header += "".join(f" max / RMS distance step {t} (m) |" for t in checked)
+    print(header)
+    print("|" + " ---: |" * (header.count("|") - 1))
     for friction in a.friction:
-        path = os.path.join(a.out, f"codim-cloth-sphere-mu{friction}.json")
-        with open(path, "w") as f:
-            json.dump(scene(a.steps, a.time_step, friction, not a.our_strain_band), f, indent=1)
-        out = os.path.join(a.out, f"codim-cloth-sphere-mu{friction}.h5")
-        subprocess.run([pd, "simulate", path, "--mode", "direct", "--threads", "1", "--out", out, "--force",
-                        "--quiet", "--allow-unconverged"], check=True)
-        r = scene_variants.read_levels(out)
-        r = r[max(r)]
-        its, secs = float(np.mean(r["iterations"])), float(np.mean(r["seconds"]))
-        print(f"| {friction} | {len(r['iterations'])} | {a.time_step} | {its:.1f} | {secs:.3f} | {secs / its:.3f} "
-              f"| {r['unconverged']} |")
+        reference = run(pd, a.out, a, friction, a.reference_tolerance) if a.reference_tolerance is not None else None
+        for tolerance in a.tolerances or [None]:
+            r = run(pd, a.out, a, friction, tolerance)
+            its, secs = float(np.mean(r["iterations"])), float(np.mean(r["seconds"]))
+            row = (f"| {friction} | {'default' if tolerance is None else f'{tolerance:g}'} | {len(r['iterations'])} "
+                   f"| {a.time_step} | {its:.1f} | {secs:.3f} | {secs / its:.3f} | {r['unconverged']} |")
+            if reference is not None:
+                row += "".join(f" {m:.2e} / {q:.2e} |"
+                               for m, q in cloth_distances(r["positions"], reference["positions"], checked))
+            print(row, flush=True)
 
 
 if __name__ == "__main__":
