@@ -18,6 +18,7 @@
 #include "farm/messaging.h"
 #include "farm/scene_source.h"
 #include "store/hierarchy_store.h"
+#include "util/process_setup.h"
 
 namespace pd::farm_load {
 
@@ -154,6 +155,7 @@ class Shard {
     h.version = "farm-load";
     h.cores = 1;
     h.host = "localhost";
+    h.blas_kernel = blas_kernel_in_use();  // as a real worker on this machine: no kernel warnings
     send(w, protocol::encode(h));
     w.hello_pending = true;
   }

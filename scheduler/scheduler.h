@@ -58,6 +58,7 @@ struct Session {
   std::set<int> fed;      // frames of the level below sent for the running attempt
   int progress = 0;       // the last frame the running attempt reported (its first frame before any)
   std::string slurm_job;  // Hello.slurm_job: the Slurm job it runs as ("" when not a Slurm worker)
+  std::string blas_kernel;  // Hello.blas_kernel
 };
 
 class Scheduler {

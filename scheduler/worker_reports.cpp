@@ -70,6 +70,7 @@ void Scheduler::on_report(const std::string& identity, protocol::Hello& m) {
     break;
   }
   s.name = m.name;
+  s.blas_kernel = m.blas_kernel;
   if (!m.slurm_job.empty()) {
     s.slurm_job = m.slurm_job;
     slurm_->worker_joined(m.slurm_job, m.name, unix_now());
@@ -82,7 +83,16 @@ void Scheduler::on_report(const std::string& identity, protocol::Hello& m) {
   send_worker(identity, protocol::encode(w));
   event("worker_joined", 0, 0, s.worker,
         m.name + " on " + m.host + ", " + std::to_string(m.cores) + " cores, version " + m.version +
-            (m.slurm_job.empty() ? "" : ", Slurm job " + m.slurm_job));
+            ", OpenBLAS kernel " + m.blas_kernel + (m.slurm_job.empty() ? "" : ", Slurm job " + m.slurm_job));
+  // Not refused (the frames are still right to the solver's tolerance), but a job whose tasks run on
+  // both gives frames that differ in the last bits from run to run: say so, once per joining worker.
+  for (const auto& [other, o] : sessions_) {
+    if (other == identity || o.blas_kernel == m.blas_kernel) continue;
+    event("worker_kernel_differs", 0, 0, s.worker,
+          m.name + " runs OpenBLAS kernel '" + m.blas_kernel + "', " + o.name + " runs '" + o.blas_kernel +
+              "': frames will depend on which of them solves a task (docs/deploy.md)");
+    break;
+  }
 }
 
 void Scheduler::on_report(const std::string& identity, protocol::WorkerHeartbeat& m) {

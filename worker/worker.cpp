@@ -63,6 +63,7 @@ class Session {
     hello.cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     hello.host = host_name();
     hello.slurm_job = o.slurm_job;
+    hello.blas_kernel = blas_kernel_in_use();
     farm::send_parts(socket_, protocol::encode(hello));
     heartbeat_ = std::chrono::milliseconds(o.heartbeat_ms);
     last_heard_ = last_sent_ = Clock::now();

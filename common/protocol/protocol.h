@@ -39,7 +39,8 @@ namespace pd::protocol {
 //    Slurm part.
 // 4: TaskFailed.failure (FailureKind), TaskStatus.horizontal.
 // 5: the prolonged Hessian name "auto" (SubmitJob's default; AssignTask.hessian may carry it).
-constexpr int kProtocolVersion = 5;
+// 6: Hello.blas_kernel.
+constexpr int kProtocolVersion = 6;
 
 // Upper bound on a whole message (all parts), bytes; larger messages are refused when decoded (and
 // sockets set ZMQ_MAXMSGSIZE to it). 1 GiB: a job file fetched in one reply must fit.
@@ -197,6 +198,10 @@ struct Hello {
   // The Slurm job this worker runs as, "<array job>_<array task>" (or "<job>" outside an array), from
   // the SLURM_* variables Slurm gives a batch job; "" when not started by Slurm.
   std::string slurm_job;
+  // The OpenBLAS kernel the worker's solves run on (util/process_setup.h: "Haswell" on every AVX2
+  // machine unless set by hand). Workers on different kernels give frames that differ in the last
+  // bits; the scheduler logs it.
+  std::string blas_kernel;
 };
 
 // The worker is alive; `attempt` is the attempt it is running (0 = idle). ping != 0 asks for an

@@ -19,6 +19,7 @@ Parts encode(const Hello& m) {
   h["cores"] = m.cores;
   h["host"] = m.host;
   h["slurm_job"] = m.slurm_job;
+  h["blas_kernel"] = m.blas_kernel;
   return wire::finish(h);
 }
 
@@ -102,6 +103,7 @@ Report decode_hello(const Message& msg) {
   m.cores = f.count("cores");
   m.host = f.text("host");
   m.slurm_job = f.text("slurm_job");
+  m.blas_kernel = f.text("blas_kernel");
   return m;
 }
 

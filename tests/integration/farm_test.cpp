@@ -42,6 +42,7 @@
 #include "support/farm.h"
 #include "support/process.h"
 #include "support/test_paths.h"
+#include "util/process_setup.h"
 
 namespace pd {
 namespace {
@@ -424,6 +425,8 @@ TEST_F(FarmTest, BadWorkerMessagesAreRefusedAndTheSchedulerKeepsServing) {
   hello.cores = 0;
   EXPECT_NE(refusal_of(peer, protocol::encode(hello)).find("cores"), std::string::npos);
   hello.cores = 1;
+  hello.blas_kernel = "NotTheWorkersKernel";  // the farm's worker runs this machine's pinned kernel
+  farm.wait_for_idle_workers(1, kCommand);  // so that the intruder joins second, beside it
   farm::send_parts(peer, protocol::encode(hello));
   EXPECT_NE(refusal_of(peer, protocol::encode(frame)).find("not this worker's running attempt"), std::string::npos);
 
@@ -434,6 +437,12 @@ TEST_F(FarmTest, BadWorkerMessagesAreRefusedAndTheSchedulerKeepsServing) {
   const auto intruder = std::find_if(workers.begin(), workers.end(), [](const json& w) { return w.at("name") == "intruder"; });
   ASSERT_NE(intruder, workers.end()) << workers.dump();
   EXPECT_EQ(intruder->at("state"), "lost");
+  // Joined beside a worker on another OpenBLAS kernel: said once, naming both.
+  const auto differs = test::log_events(farm.scheduler_log(), "worker_kernel_differs");
+  ASSERT_EQ(differs.size(), 1u) << test::read_file_text(farm.scheduler_log());
+  const std::string message = differs[0].at("message");
+  EXPECT_NE(message.find("NotTheWorkersKernel"), std::string::npos) << message;
+  EXPECT_NE(message.find(blas_kernel_in_use()), std::string::npos) << message;
 }
 
 TEST_F(FarmTest, BadScenesJobsOptionsAndUnreachableFarmsExitTwoWithClearMessages) {

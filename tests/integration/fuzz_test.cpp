@@ -32,6 +32,7 @@
 #include "support/farm.h"
 #include "support/fuzz_messages.h"
 #include "support/process.h"
+#include "util/process_setup.h"
 
 namespace pd {
 namespace {
@@ -187,7 +188,7 @@ void drain(zmq::socket_t& s, const PeerConfig& c, PeerReport& r, std::chrono::mi
 }
 
 bool say_hello(zmq::socket_t& s, const std::string& name, std::chrono::milliseconds timeout) {
-  farm::send_parts(s, protocol::encode(protocol::Hello{name, "fuzz", 1, "fuzzhost", ""}));
+  farm::send_parts(s, protocol::encode(protocol::Hello{name, "fuzz", 1, "fuzzhost", "", blas_kernel_in_use()}));
   const auto deadline = Clock::now() + timeout;
   while (Clock::now() < deadline) {
     const std::optional<Parts> p = farm::recv_parts_within(s, 200ms);
@@ -777,7 +778,7 @@ void client_cases(zmq::context_t& ctx, const test::Farm& farm, int64_t failed_jo
     return e ? e->message : "(a " + protocol::message_type(*reply) + " reply)";
   };
   c.expect("a worker report on the clients socket",
-           error_of(protocol::encode(protocol::Hello{"x", "fuzz", 1, "fuzzhost", ""})),
+           error_of(protocol::encode(protocol::Hello{"x", "fuzz", 1, "fuzzhost", "", blas_kernel_in_use()})),
            "malformed request: hello: not a client request (it is a worker report)");
   c.expect("a status request of the next protocol version",
            error_of(with_version(protocol::encode(protocol::StatusRequest{0}), protocol::kProtocolVersion + 1)),
@@ -851,7 +852,7 @@ TEST_F(FarmTest, OutOfOrderAndForgedReportsAreRefusedNamingTheReasonAndTheSchedu
   zmq::context_t ctx(1);
   Cases cases;
   HandPeer p(ctx, farm.workers_endpoint(), "order-p");
-  unregistered_and_idle_cases(p, protocol::Hello{"order-p", "fuzz", 1, "fuzzhost", ""}, done, vertices[0], cases);
+  unregistered_and_idle_cases(p, protocol::Hello{"order-p", "fuzz", 1, "fuzzhost", "", blas_kernel_in_use()}, done, vertices[0], cases);
   if (HasFatalFailure()) return;
 
   const int64_t job = test::submit(farm, {scene, "--frames", std::to_string(kFrames), "--subsets", "1"});
@@ -872,7 +873,7 @@ TEST_F(FarmTest, OutOfOrderAndForgedReportsAreRefusedNamingTheReasonAndTheSchedu
   EXPECT_FALSE(level->hierarchy_blob.has_value()) << "the hierarchy was sent back to the peer that built it";
 
   HandPeer q(ctx, farm.workers_endpoint(), "order-q");
-  farm::send_parts(q.socket(), protocol::encode(protocol::Hello{"order-q", "fuzz", 1, "fuzzhost", ""}));
+  farm::send_parts(q.socket(), protocol::encode(protocol::Hello{"order-q", "fuzz", 1, "fuzzhost", "", blas_kernel_in_use()}));
   ASSERT_TRUE(q.wait_for<protocol::Welcome>(10s)) << "no welcome for order-q";
   int claims = 0;
   EXPECT_EQ(claims_refused(q, test::job_status(farm, job).at("tasks"), vertices, &claims), 4 * 64 * 2);

@@ -50,8 +50,9 @@ HierarchyDone sample_hierarchy() {
 }
 
 TEST(ProtocolReports, HelloAndHeartbeatRoundTrip) {
-  const Hello h = round_trip(Hello{"w1", "0.4.0", 16, "node-07", "4711_3"});
+  const Hello h = round_trip(Hello{"w1", "0.4.0", 16, "node-07", "4711_3", "Haswell"});
   EXPECT_EQ(h.name, "w1");
+  EXPECT_EQ(h.blas_kernel, "Haswell");
   EXPECT_EQ(h.slurm_job, "4711_3");
   EXPECT_EQ(h.version, "0.4.0");
   EXPECT_EQ(h.cores, 16);
@@ -132,7 +133,7 @@ TEST(ProtocolReports, MessagesOfOtherFamiliesAreRefused) {
 }
 
 TEST(ProtocolReports, EveryRequiredFieldIsCheckedByName) {
-  EXPECT_EQ(check_every_field_required(encode(Hello{"w", "1", 2, "h", "9"})), 5);
+  EXPECT_EQ(check_every_field_required(encode(Hello{"w", "1", 2, "h", "9", "k"})), 6);
   EXPECT_EQ(check_every_field_required(encode(WorkerHeartbeat{3})), 2);
   EXPECT_EQ(check_every_field_required(encode(sample_frame())), 7);
   EXPECT_EQ(check_every_field_required(encode(TaskDone{1, 2, 3, true, 4.0})), 5);
@@ -142,7 +143,7 @@ TEST(ProtocolReports, EveryRequiredFieldIsCheckedByName) {
 }
 
 TEST(ProtocolReports, EveryFieldOfTheWrongTypeIsRefusedByName) {
-  EXPECT_EQ(check_every_field_typed(encode(Hello{"w", "1", 2, "h", "9"})), 5);
+  EXPECT_EQ(check_every_field_typed(encode(Hello{"w", "1", 2, "h", "9", "k"})), 6);
   EXPECT_EQ(check_every_field_typed(encode(WorkerHeartbeat{3})), 2);
   EXPECT_EQ(check_every_field_typed(encode(sample_frame())), 7);
   EXPECT_EQ(check_every_field_typed(encode(TaskDone{1, 2, 3, true, 4.0})), 5);

@@ -23,6 +23,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "util/process_setup.h"
+
 namespace pd::test {
 
 namespace {
@@ -85,7 +87,7 @@ std::vector<Parts> reports() {
   done.levels = 2;
   done.vertices = {4, 8};
   done.blob = "HDF5 but not really";
-  return {protocol::encode(protocol::Hello{"fuzz", "0.0", 1, "fuzzhost", ""}),
+  return {protocol::encode(protocol::Hello{"fuzz", "0.0", 1, "fuzzhost", "", blas_kernel_in_use()}),
           protocol::encode(protocol::WorkerHeartbeat{kId, 0}),
           protocol::encode(frame),
           protocol::encode(protocol::TaskDone{kId, kId + 1, 0, false, 1.5}),
