@@ -43,7 +43,6 @@ MESHES = {"cloth": "square57.obj", "sphere": "sphere1K_0.3.obj", "floor": "squar
 
 
 THICKNESS = 0.318e-3  # m
-CLOTH_VERTICES = 3249  # square57.obj; the cloth is the scene's first object, so its rows come first
 
 
 def scene(steps, h, friction, codim_strain_band=True, tolerance=None):
@@ -89,10 +88,15 @@ def run(pd, out_dir, a, friction, tolerance):
     return r[max(r)]
 
 
-def cloth_distances(positions, reference, steps):
-    """Largest and RMS distance (m) of the cloth's vertices (the scene's first object) to the
-    reference's at each of `steps`."""
-    cloth = slice(0, CLOTH_VERTICES)
+def obj_vertex_count(path):
+    with open(path) as f:
+        return sum(1 for line in f if line.startswith("v "))
+
+
+def cloth_distances(positions, reference, steps, cloth_vertices):
+    """Largest and RMS distance (m) of the cloth's vertices (the scene's first object, so its rows
+    come first) to the reference's at each of `steps`."""
+    cloth = slice(0, cloth_vertices)
     out = []
     for t in steps:
         d = np.linalg.norm(positions[t, cloth] - reference[t, cloth], axis=1)
@@ -124,6 +128,7 @@ def main():
         os.symlink(os.path.abspath(os.path.join(a.meshes, name)), link)
     pd = os.path.join(a.build, "client", "pd")
     checked = [a.steps // 2, a.steps]
+    cloth_vertices = obj_vertex_count(os.path.join(a.meshes, MESHES["cloth"]))
     header = "| friction | tolerance | steps | h (s) | Newton its/step | solve s/step | s per iteration | unconverged |"
     if a.reference_tolerance is not None:
         header += "".join(f" max / RMS distance step {t} (m) |" for t in checked)
@@ -138,7 +143,8 @@ def main():
                    f"| {a.time_step} | {its:.1f} | {secs:.3f} | {secs / its:.3f} | {r['unconverged']} |")
             if reference is not None:
                 row += "".join(f" {m:.2e} / {q:.2e} |"
-                               for m, q in cloth_distances(r["positions"], reference["positions"], checked))
+                               for m, q in cloth_distances(r["positions"], reference["positions"], checked,
+                                                              cloth_vertices))
             print(row, flush=True)
 
 

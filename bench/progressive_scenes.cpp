@@ -30,7 +30,6 @@
 #include "progressive/level_task.h"
 #include "scene/scene_file.h"
 #include "store/frame_store.h"
-#include "util/process_setup.h"
 
 using namespace pd;
 
@@ -178,6 +177,5 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  configure_numerical_libraries(argv);
-  return pd::bench::run_reporting_errors("pd_bench_progressive", run, argc, argv);
+  return pd::bench::run_benchmark("pd_bench_progressive", run, argc, argv);
 }

@@ -28,7 +28,6 @@
 #include "progressive/error_measures.h"
 #include "progressive/level_task.h"
 #include "scene/scene_file.h"
-#include "util/process_setup.h"
 
 namespace {
 
@@ -142,6 +141,5 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  pd::configure_numerical_libraries(argv);
-  return pd::bench::run_reporting_errors("pd_bench_seam_overlap", run, argc, argv);
+  return pd::bench::run_benchmark("pd_bench_seam_overlap", run, argc, argv);
 }

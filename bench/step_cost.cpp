@@ -25,7 +25,6 @@
 #include "progressive/level_stepper.h"
 #include "util/fnv1a.h"
 #include "util/parallel.h"
-#include "util/process_setup.h"
 
 using namespace pd;
 
@@ -103,6 +102,5 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  configure_numerical_libraries(argv);
-  return pd::bench::run_reporting_errors("pd_bench_step_cost", run, argc, argv);
+  return pd::bench::run_benchmark("pd_bench_step_cost", run, argc, argv);
 }

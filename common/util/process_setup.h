@@ -6,8 +6,9 @@ namespace pd {
 
 // Sets the numerical libraries' start-up variables and re-executes the program with the same
 // arguments when it had to set one, because both libraries read them only when the process is
-// loaded. A variable the user set themselves (to a non-empty value) is respected. Returns normally when nothing had to be
-// done or when the re-exec failed (then the program runs slower, or with OpenBLAS's own kernel).
+// loaded. A variable the user set themselves (to a non-empty value) is respected. Returns normally
+// when nothing had to be done or when the re-exec failed (then the program runs slower, or with
+// OpenBLAS's own kernel).
 //   OMP_THREAD_LIMIT=1: Debian's CHOLMOD runs parts of its supernodal factorization with a
 //     compiled-in num_threads(4) OpenMP clause. On the 2-core machines we run on that oversubscribes
 //     the cores, and factorization was 2.3x slower than with one OpenMP thread (measured in
