@@ -177,6 +177,87 @@ Level assemble_level(const detail::CollapseSnapshot& state, const std::vector<in
   return level;
 }
 
+// The run's ids are those of the mesh it started from, level l+1's; the rest of build_levels works
+// in finest ids. `to_finest` is level l+1's map (increasing, so canonical rotations and sorted face
+// lists carry over unchanged).
+detail::CollapseSnapshot snapshot_in_finest_ids(const detail::CollapseSnapshot& s, const std::vector<int>& to_finest,
+                                                int n_finest) {
+  detail::CollapseSnapshot out;
+  out.num_collapses = s.num_collapses;
+  out.num_vertices = s.num_vertices;
+  out.V = Positions::Zero(n_finest, 3);
+  out.alive.assign(static_cast<std::size_t>(n_finest), 0);
+  for (std::size_t i = 0; i < s.alive.size(); ++i) {
+    const int f = to_finest[i];
+    out.V.row(f) = s.V.row(static_cast<Eigen::Index>(i));
+    out.alive[static_cast<std::size_t>(f)] = s.alive[i];
+  }
+  out.faces = s.faces;
+  for (Tri& t : out.faces) for (int& v : t) v = to_finest[static_cast<std::size_t>(v)];
+  return out;
+}
+
+// build_levels with prescribed vertex sets (LevelSettings::kept_vertices): each level decimated from
+// the one above it in a run of its own, its kept vertices locked. `levels` has the finest level set;
+// `locked` and `boundary` are by finest id.
+void build_kept_levels(std::vector<Level>& levels, const std::vector<int>& targets, const std::vector<char>& locked,
+                       const std::vector<char>& boundary, const LevelSettings& settings) {
+  const int L = static_cast<int>(targets.size());
+  const std::size_t n = locked.size();
+  std::vector<int> finer_map(n);
+  std::iota(finer_map.begin(), finer_map.end(), 0);
+  for (int k = 0; k < L; ++k) {
+    const int l = L - 1 - k, t = targets[static_cast<std::size_t>(k)];
+    const std::string name = level_name(l, L);
+    const Level& finer = levels[static_cast<std::size_t>(l) + 1];
+    std::vector<char> keep(n, 0);
+    for (int id : settings.kept_vertices[static_cast<std::size_t>(k)]) {
+      if (id < 0 || static_cast<std::size_t>(id) >= n || finer_map[static_cast<std::size_t>(id)] < 0)
+        throw InputError(name + ": kept vertex " + std::to_string(id) + " is not a vertex of level " +
+                         std::to_string(l + 1));
+      keep[static_cast<std::size_t>(id)] = 1;
+    }
+    std::vector<char> fixed(finer.to_finest.size(), 0);
+    for (std::size_t i = 0; i < fixed.size(); ++i) {
+      const auto f = static_cast<std::size_t>(finer.to_finest[i]);
+      fixed[i] = (locked[f] || keep[f]) ? 1 : 0;
+    }
+    detail::CollapseRun run;
+    try {
+      run = detail::run_edge_collapse(finer.mesh, fixed, {t}, settings.decimation, detail::CollapseRule::kOntoLocked);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(name + ": " + e.what());
+    }
+    if (run.reached.empty()) {
+      std::string left;  // the first few vertices that could not be removed, finest ids
+      int count = 0;
+      for (std::size_t i = 0; i < fixed.size(); ++i)
+        if (run.final_state.alive[i] && !fixed[i] && ++count <= 5)
+          left += (count > 1 ? ", " : "") + std::to_string(finer.to_finest[i]);
+      throw InputError(name + ": decimation of level " + std::to_string(l + 1) + "'s " +
+                       std::to_string(finer.mesh.num_vertices()) + " vertices to its kept vertex set stopped at " +
+                       std::to_string(run.final_state.num_vertices) + ", above the target of " + std::to_string(t) +
+                       ": no collapse is left that keeps the mesh manifold, the triangles unflipped and well-shaped "
+                       "and removes vertex " + left + (count > 5 ? " or " + std::to_string(count - 5) + " more" : ""));
+    }
+    const detail::CollapseSnapshot state = snapshot_in_finest_ids(run.reached.front(), finer.to_finest, static_cast<int>(n));
+    for (std::size_t f = 0; f < n; ++f)
+      if (state.alive[f] && !keep[f] && !locked[f] && !boundary[f])
+        throw InputError(name + ": the target of " + std::to_string(t) + " vertices leaves vertex " + std::to_string(f) +
+                         ", which is neither kept nor fixed (the target must count the kept and fixed vertices)");
+    std::vector<Collapse> records(run.collapses.begin(), run.collapses.begin() + state.num_collapses);
+    for (Collapse& c : records) {
+      c.removed = finer.to_finest[static_cast<std::size_t>(c.removed)];
+      c.kept = finer.to_finest[static_cast<std::size_t>(c.kept)];
+      for (Tri& tri : c.faces_before) for (int& v : tri) v = finer.to_finest[static_cast<std::size_t>(v)];
+      for (Tri& tri : c.faces_after) for (int& v : tri) v = finer.to_finest[static_cast<std::size_t>(v)];
+    }
+    std::vector<int> this_map;
+    levels[static_cast<std::size_t>(l)] = assemble_level(state, finer.to_finest, finer_map, std::move(records), this_map);
+    finer_map = std::move(this_map);
+  }
+}
+
 }  // namespace
 
 std::vector<Level> build_levels(const TriMesh& finest, const LevelSettings& settings) {
@@ -254,6 +335,12 @@ std::vector<Level> build_levels(const TriMesh& finest, const LevelSettings& sett
   top.to_finest.resize(static_cast<std::size_t>(n));
   std::iota(top.to_finest.begin(), top.to_finest.end(), 0);
   if (L == 0) return levels;
+  if (!settings.kept_vertices.empty()) {
+    if (by_ratio || settings.kept_vertices.size() != targets.size())
+      throw InputError("level settings: kept_vertices needs one list per entry of target_vertex_counts");
+    build_kept_levels(levels, targets, locked, topo.boundary_vertex, settings);
+    return levels;
+  }
 
   detail::CollapseRun run;
   try {

@@ -11,7 +11,10 @@
 // fixed (below). The normal and position variances are given in units of the mesh (see
 // DecimationSettings), not CGAL's defaults, so the result does not depend on the unit of length.
 // All levels come from ONE run of collapses: level l is the state after the collapses that brought
-// the vertex count down to its target, so quadrics accumulate across levels (as in PSQ 4.1).
+// the vertex count down to its target, so quadrics accumulate across levels (as in PSQ 4.1). The
+// exception is prescribed vertex sets (LevelSettings::kept_vertices, e.g. sub-grids): there each
+// level is its own run from the next finer one, collapsing free vertices into kept ones only
+// (detail::CollapseRule::kOntoLocked), so no vertex of any level moves from its finest position.
 //
 // Rules every collapse obeys (the rest of the hierarchy may rely on them):
 // - Locked vertices (pinned regions, given by the caller) are never removed and never moved.
@@ -133,6 +136,13 @@ struct LevelSettings {
   int coarser_levels = 3;
   // Finest-mesh vertex ids that no level may remove or move (pinned regions).
   std::vector<int> locked_vertices;
+  // Prescribed vertex sets (e.g. grid_level_vertices, for meshes with a symmetry the quadric order
+  // would break). When non-empty: one list per entry of target_vertex_counts (level L-1 first), finest
+  // ids, each a subset of the previous list. Level l keeps exactly its list plus the fixed vertices
+  // (locked; boundary per keep_boundary), which must number exactly its target; its listed vertices
+  // never move while it is decimated from level l+1, in a run of its own (quadrics do not carry over
+  // from the finer level's run, since the next level's free vertices would then be fixed too early).
+  std::vector<std::vector<int>> kept_vertices;
   DecimationSettings decimation;
 };
 

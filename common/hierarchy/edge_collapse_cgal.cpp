@@ -39,6 +39,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
@@ -77,6 +78,8 @@ struct State {
   int num_vertices = 0;
   std::vector<int> targets;
   std::size_t next_target = 0;
+  CollapseRule rule = CollapseRule::kQuadric;
+  Vec3 centre = Vec3::Zero();  // of the start mesh's bounding box (kOntoLocked's tie-break)
   CollapseRun* run = nullptr;
   Collapse pending;
   bool has_pending = false;
@@ -101,6 +104,27 @@ struct State {
       return e0.cross(e1).norm() <= kStraightBoundaryTolerance * n0 * n1;
     }
     return false;
+  }
+
+  int degree(VI v) const {
+    int d = 0;
+    for (HI h : CGAL::halfedges_around_target(v, *mesh)) {
+      (void)h;
+      ++d;
+    }
+    return d;
+  }
+
+  // kOntoLocked: which end of the edge may be removed into the other, or none. A free (unlocked)
+  // interior vertex goes into a locked neighbour; a free boundary vertex into a locked boundary
+  // neighbour along a straight boundary edge. Returns {removed, kept}.
+  std::optional<std::pair<VI, VI>> onto_locked(VI v0, VI v1, bool boundary_edge) const {
+    for (const auto& [r, k] : {std::pair{v0, v1}, std::pair{v1, v0}}) {
+      if (is_locked(r) || !is_locked(k)) continue;
+      if (!is_border(r)) return std::pair{r, k};
+      if (!keep_boundary && boundary_edge && on_straight_boundary(r)) return std::pair{r, k};
+    }
+    return std::nullopt;
   }
 
   // Input-id triangle of a CGAL face, canonical rotation.
@@ -155,6 +179,11 @@ struct Placement {
   template <class Profile>
   OptPoint operator()(const Profile& profile) const {
     const VI v0 = profile.v0(), v1 = profile.v1();
+    if (s->rule == CollapseRule::kOntoLocked) {
+      const auto ends = s->onto_locked(v0, v1, profile.is_v0_v1_a_border() || profile.is_v1_v0_a_border());
+      if (!ends) return boost::none;
+      return s->point(ends->second);
+    }
     const bool imm0 = s->immobile(v0), imm1 = s->immobile(v1);
     if (!imm0 && !imm1) return (*gh)(profile);
     if (imm0 && !imm1) return profile.p0();
@@ -213,6 +242,22 @@ struct Filter {
   }
 };
 
+// kOntoLocked's order (see CollapseRule): the removed vertex's degree first, then the kept vertex's
+// distance to the centre as a fraction below 1 of the bounding-box diagonal. Edges that cannot
+// collapse under the rule cost the most; the placement turns them down when they come up.
+struct OntoLockedCost {
+  State* s;
+  double diagonal = 1.0;
+
+  template <class Profile, class Placement>
+  boost::optional<double> operator()(const Profile& profile, const Placement&) const {
+    const auto ends = s->onto_locked(profile.v0(), profile.v1(), profile.is_v0_v1_a_border() || profile.is_v1_v0_a_border());
+    if (!ends) return 1e12;
+    const double distance = (to_vec(s->point(ends->second)) - s->centre).norm() / diagonal;
+    return static_cast<double>(s->degree(ends->first)) + std::min(distance, 0.999);
+  }
+};
+
 struct StopAtTarget {
   State* s;
   template <class FT, class Profile>
@@ -265,7 +310,8 @@ struct Recorder : SMS::Edge_collapse_visitor_base<Mesh> {
 }  // namespace
 
 CollapseRun run_edge_collapse(const TriMesh& input, const std::vector<char>& locked,
-                              const std::vector<int>& targets, const DecimationSettings& settings) {
+                              const std::vector<int>& targets, const DecimationSettings& settings,
+                              CollapseRule rule) {
   const int n = input.num_vertices();
   if (targets.empty() || static_cast<int>(locked.size()) != n)
     throw std::invalid_argument("run_edge_collapse: bad arguments");
@@ -305,6 +351,8 @@ CollapseRun run_edge_collapse(const TriMesh& input, const std::vector<char>& loc
   s.min_area = 1e-10 * diag2;
   s.num_vertices = n;
   s.targets = targets;
+  s.rule = rule;
+  s.centre = 0.5 * (input.V.colwise().maxCoeff() + input.V.colwise().minCoeff()).transpose();
   s.run = &run;
 
   // Discontinuity multiplier 100 (CGAL's default) on boundary-edge quadrics; immaterial where
@@ -317,8 +365,14 @@ CollapseRun run_edge_collapse(const TriMesh& input, const std::vector<char>& loc
   const StopAtTarget stop{&s};
   Recorder recorder(&s);
 
-  SMS::edge_collapse(mesh, stop,
-                     CGAL::parameters::get_cost(gh).get_placement(placement).filter(filter).visitor(recorder));
+  if (rule == CollapseRule::kOntoLocked) {
+    const OntoLockedCost cost{&s, std::max(std::sqrt(diag2), 1e-300)};
+    SMS::edge_collapse(mesh, stop,
+                       CGAL::parameters::get_cost(cost).get_placement(placement).filter(filter).visitor(recorder));
+  } else {
+    SMS::edge_collapse(mesh, stop,
+                       CGAL::parameters::get_cost(gh).get_placement(placement).filter(filter).visitor(recorder));
+  }
 
   run.final_state = s.snapshot();
   return run;

@@ -29,6 +29,23 @@ struct CollapseRun {
   CollapseSnapshot final_state;           // the state when the run ended
 };
 
+// Which collapses a run makes, in which order.
+enum class CollapseRule {
+  // By quadric cost (Garland-Heckbert probabilistic plane quadrics), placement at the quadric's
+  // minimiser unless an end is fixed; the hierarchy's default.
+  kQuadric,
+  // Only onto a locked vertex: a free vertex merges into a locked neighbour, which stays where it is
+  // (a free boundary vertex only along a straight boundary edge); two free vertices never merge.
+  // Order: the removed vertex's current degree, lowest first, then the kept neighbour's distance to
+  // the centre of the mesh's bounding box, nearest first. On a grid whose kept lines are every other
+  // line (LevelSettings::kept_vertices from grid_level_vertices) this removes the vertices between
+  // kept lines first, which leaves each kept line an edge chain, then the cell centres, each
+  // leaving the diagonal that points toward the centre, so a mirror-symmetric set gives a
+  // mirror-symmetric mesh. The quadric order instead merges free vertices with each other and can
+  // leave one inside a polygon of collinear kept vertices that no single collapse removes.
+  kOntoLocked,
+};
+
 // Runs edge collapse on `mesh` (already validated: manifold, consistently oriented, no degenerate
 // faces, every vertex used) until the vertex count reaches targets.back(), taking a snapshot each
 // time it reaches one of `targets` (strictly decreasing, all below the vertex count). Stops early
@@ -36,6 +53,7 @@ struct CollapseRun {
 // handled per settings.keep_boundary). Throws std::invalid_argument if the mesh cannot be built as a
 // halfedge mesh.
 CollapseRun run_edge_collapse(const TriMesh& mesh, const std::vector<char>& locked,
-                              const std::vector<int>& targets, const DecimationSettings& settings);
+                              const std::vector<int>& targets, const DecimationSettings& settings,
+                              CollapseRule rule = CollapseRule::kQuadric);
 
 }  // namespace pd::detail

@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "geometry/topology.h"
+#include "hierarchy/grid_coarsening.h"
 #include "hierarchy/intrinsic_location.h"
 #include "hierarchy/split_batches.h"
 #include "util/fnv1a.h"
@@ -36,6 +38,45 @@ struct ObjectPlan {
   std::vector<int> counts;  // explicit vertex_counts only: counts[l] for scene level l
 };
 
+// The plan of a `coarsening: "grid"` object: each coarser level keeps its sub-grid
+// (grid_level_vertices) and the vertices fixed anyway (pins, the boundary when kept), whose number is
+// its vertex count; a level whose set equals the finer one's is a copy, as with repeated counts.
+ObjectPlan plan_grid(const SceneObject& obj, const Scene& scene, std::size_t k, ObjectPlan plan) {
+  const int L = scene.hierarchy.levels - 1;
+  const int n = obj.rest.num_vertices();
+  if (!obj.grid || !obj.hierarchy.vertex_counts.empty())
+    throw InputError(object_prefix(scene, k) + "hierarchy.coarsening: \"grid\" needs a rectangle or box mesh and "
+                     "no vertex_counts");
+  if (static_cast<int>(obj.grid->coords.size()) != n)
+    throw InputError(object_prefix(scene, k) + "hierarchy.coarsening: the mesh has " + std::to_string(n) +
+                     " vertices, its grid " + std::to_string(obj.grid->coords.size()));
+  std::vector<char> fixed(static_cast<std::size_t>(n), 0);
+  for (int v : plan.settings.locked_vertices) fixed[static_cast<std::size_t>(v)] = 1;
+  if (plan.settings.decimation.keep_boundary) {
+    const Topology topo = build_topology(obj.rest);
+    for (int v = 0; v < n; ++v)
+      if (topo.boundary_vertex[static_cast<std::size_t>(v)]) fixed[static_cast<std::size_t>(v)] = 1;
+  }
+  plan.by_ratio = false;
+  plan.counts.assign(static_cast<std::size_t>(L) + 1, n);
+  const std::vector<std::vector<int>> grids = grid_level_vertices(*obj.grid, L);
+  for (int i = 0; i < L; ++i) {
+    const auto l = static_cast<std::size_t>(L - 1 - i);
+    std::vector<char> keep = fixed;
+    for (int v : grids[static_cast<std::size_t>(i)]) keep[static_cast<std::size_t>(v)] = 1;
+    std::vector<int> kept;
+    for (int v = 0; v < n; ++v)
+      if (keep[static_cast<std::size_t>(v)]) kept.push_back(v);
+    plan.counts[l] = static_cast<int>(kept.size());
+    if (plan.counts[l] < plan.counts[l + 1]) {
+      plan.settings.target_vertex_counts.push_back(plan.counts[l]);
+      plan.settings.kept_vertices.push_back(std::move(kept));
+    }
+  }
+  plan.settings.coarser_levels = 0;  // as for explicit counts: only the distinct levels are built
+  return plan;
+}
+
 // Checks the scene's and object k's hierarchy settings (the reader does too, with key paths; a scene
 // built in code gets the same checks here) and derives build_levels' settings. The decimation settings
 // are the defaults except keep_boundary, which defaults to false (ObjectHierarchyConfig).
@@ -56,6 +97,7 @@ ObjectPlan plan_object(const Scene& scene, std::size_t k) {
         std::unique(plan.settings.locked_vertices.begin(), plan.settings.locked_vertices.end()),
         plan.settings.locked_vertices.end());
   }
+  if (hc.grid_coarsening) return plan_grid(obj, scene, k, std::move(plan));
   if (hc.vertex_counts.empty()) {
     plan.settings.coarser_levels = L;
     return plan;
@@ -175,6 +217,14 @@ std::string hash_of(const Scene& scene, const std::vector<ObjectPlan>& plans) {
     h.i64(obj.obstacle ? 1 : 0);
     h.i64(static_cast<long long>(obj.hierarchy.vertex_counts.size()));
     for (int c : obj.hierarchy.vertex_counts) h.i64(c);
+    // Hashed only when set, so that quadric-coarsened scenes keep their hashes.
+    if (obj.hierarchy.grid_coarsening) {
+      h.str("grid");
+      for (const std::vector<int>& kept : plan.settings.kept_vertices) {
+        h.i64(static_cast<long long>(kept.size()));
+        for (int v : kept) h.i64(v);
+      }
+    }
     const DecimationSettings& ds = plan.settings.decimation;
     h.i64(ds.keep_boundary ? 1 : 0);
     h.f64(ds.max_normal_change_degrees);

@@ -1,6 +1,7 @@
 #pragma once
 // A parsed, validated scene: everything a simulation needs, in SI units.
 // docs/scene-format.md documents the JSON keys that fill these fields.
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -8,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "geometry/mesh.h"
+#include "hierarchy/grid_coarsening.h"
 #include "physics/hessian_projection.h"
 
 namespace pd {
@@ -108,11 +110,17 @@ struct ObjectHierarchyConfig {
   // since a sheet's boundary grows like sqrt(n) and would block a 4x ratio; without it only straight
   // boundary stretches coarsen, so corners and curved boundaries stay exact.
   std::optional<bool> keep_boundary;
+  // Coarser levels as nested sub-grids (grid_level_vertices) instead of by quadric cost: key
+  // `coarsening: "grid"`, only for `rectangle` and `box` meshes; the grid sets the vertex counts.
+  bool grid_coarsening = false;
 };
 
 struct SceneObject {
   std::string name;
   TriMesh rest;                        // rest shape after the object's transform, m
+  // The lattice of a generated `rectangle` or `box` mesh (for hierarchy.coarsening "grid"); absent
+  // for other meshes.
+  std::optional<GridLattice> grid;
   Positions initial;                   // initial positions (== rest.V unless posed), m
   Vec3 initial_velocity = Vec3::Zero();  // m/s, every vertex
   Material material;

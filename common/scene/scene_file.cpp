@@ -102,7 +102,7 @@ TriMesh read_obj_at(const JsonNode& path_node, const std::string& base_dir) {
 
 // Runs a mesh generator; anything it throws becomes an InputError at the mesh's key path.
 template <class Make>
-TriMesh generate(const JsonNode& mesh, Make make) {
+auto generate(const JsonNode& mesh, Make make) -> decltype(make()) {
   try {
     return make();
   } catch (const InputError&) {
@@ -113,6 +113,23 @@ TriMesh generate(const JsonNode& mesh, Make make) {
 }
 
 int as_int(long long v) { return static_cast<int>(v); }
+
+// The lattice of a generated rectangle or box (read_mesh has checked its keys), from its vertices
+// before the object's transform; nothing for other mesh types.
+std::optional<GridLattice> generated_lattice(const JsonNode& mesh_node, const TriMesh& mesh) {
+  const std::string type = mesh_node.required("type").string(64);
+  std::array<int, 3> cells{0, 0, 0};
+  if (type == "rectangle") {
+    const std::vector<JsonNode> c = mesh_node.required("cells").elements(2);
+    cells = {as_int(c[0].integer(1, 100000)), as_int(c[1].integer(1, 100000)), 0};
+  } else if (type == "box") {
+    const int c = as_int(mesh_node.required("cells").integer(1, 10000));
+    cells = {c, c, c};
+  } else {
+    return std::nullopt;
+  }
+  return generate(mesh_node, [&] { return lattice_of(mesh.V, cells); });
+}
 
 TriMesh read_mesh(const JsonNode& mesh, const std::string& base_dir, const MeshBudget& budget) {
   const std::string type = mesh.required("type").choice(
@@ -450,6 +467,7 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
   }
   JsonNode mesh_node = node.required("mesh");
   TriMesh mesh = read_mesh(mesh_node, base_dir, budget);
+  obj.grid = generated_lattice(mesh_node, mesh);
   Transform transform;
   if (auto t = node.optional("transform")) transform = read_transform(*t);
   std::optional<Positions> posed;

@@ -36,10 +36,18 @@ HierarchyConfig read_hierarchy(const JsonNode& node) {
 
 ObjectHierarchyConfig read_object_hierarchy(const JsonNode& node, const HierarchyConfig& scene_config,
                                             const SceneObject& object) {
-  node.expect_keys({"vertex_counts", "keep_boundary"});
+  node.expect_keys({"vertex_counts", "keep_boundary", "coarsening"});
   ObjectHierarchyConfig c;
   if (auto kb = node.optional("keep_boundary")) c.keep_boundary = kb->boolean();
   auto counts_node = node.optional("vertex_counts");
+  if (auto coarsening = node.optional("coarsening")) {
+    c.grid_coarsening = coarsening->choice({"quadric", "grid"}, "coarsening") == "grid";
+    if (c.grid_coarsening && !object.grid)
+      coarsening->fail_got("\"grid\" needs a mesh of type \"rectangle\" or \"box\" (object \"" + object.name + "\")");
+    if (c.grid_coarsening && counts_node)
+      counts_node->fail("must be left out with coarsening \"grid\", whose sub-grids set the vertex counts (object \"" +
+                        object.name + "\")");
+  }
   if (!counts_node) return c;
   const int finest = scene_config.levels - 1;  // index of the finest level
   const int n = object.rest.num_vertices();

@@ -7,9 +7,11 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
@@ -17,6 +19,7 @@
 #include "geometry/shapes.h"
 #include "geometry/topology.h"
 #include "hierarchy/decimation.h"
+#include "hierarchy/grid_coarsening.h"
 #include "util/input_error.h"
 
 namespace pd {
@@ -345,6 +348,69 @@ TEST(Decimation, StraightBoundaryMayCoarsenWhenAllowed) {
 
 // ---- Determinism ------------------------------------------------------------------------------------
 
+// ---- Prescribed vertex sets (LevelSettings::kept_vertices) ------------------------------------------
+
+// Faces of `level` that have no mirror image in it, mirrored in x (the sheet is centred on 0).
+int faces_without_mirror_image(const Level& level) {
+  const TriMesh& m = level.mesh;
+  auto key = [](double x, double y) { return std::pair{std::llround(x * 1e6), std::llround(y * 1e6)}; };
+  std::map<std::pair<long long, long long>, int> at;
+  for (int v = 0; v < m.num_vertices(); ++v) at[key(m.V(v, 0), m.V(v, 1))] = v;
+  const std::vector<Tri> tris = sorted_tris(m.F);
+  int unmatched = 0;
+  for (const Tri& t : tris) {
+    std::array<int, 3> mirrored{};
+    for (int k = 0; k < 3; ++k) {
+      const auto it = at.find(key(-m.V(t[static_cast<std::size_t>(k)], 0), m.V(t[static_cast<std::size_t>(k)], 1)));
+      mirrored[static_cast<std::size_t>(k)] = it == at.end() ? -1 : it->second;
+    }
+    // A mirror image has the opposite orientation: compare as vertex sets.
+    std::sort(mirrored.begin(), mirrored.end());
+    bool found = false;
+    for (const Tri& u : tris) {
+      std::array<int, 3> su = u;
+      std::sort(su.begin(), su.end());
+      found = found || su == mirrored;
+    }
+    unmatched += found ? 0 : 1;
+  }
+  return unmatched;
+}
+
+TEST(Decimation, KeptVertexSetsAreExactlyTheLevelsInPlaceMirrorSymmetricAndReplay) {
+  const int cells = 16;
+  const TriMesh m = make_rectangle(1.0, 1.0, cells, cells);
+  for (const bool pinned_boundary : {false, true}) {
+    SCOPED_TRACE(pinned_boundary ? "boundary pinned" : "free boundary");
+    LevelSettings s;
+    s.decimation.keep_boundary = false;  // as in scenes: straight boundary stretches coarsen too
+    if (pinned_boundary) s.locked_vertices = boundary_ids(m);
+    std::vector<char> fixed(static_cast<std::size_t>(m.num_vertices()), 0);
+    for (int v : s.locked_vertices) fixed[static_cast<std::size_t>(v)] = 1;
+    for (std::vector<int> kept : grid_level_vertices(lattice_of(m.V, {cells, cells, 0}), 2)) {
+      for (int v = 0; v < m.num_vertices(); ++v)
+        if (fixed[static_cast<std::size_t>(v)]) kept.push_back(v);
+      std::sort(kept.begin(), kept.end());
+      kept.erase(std::unique(kept.begin(), kept.end()), kept.end());
+      s.target_vertex_counts.push_back(static_cast<int>(kept.size()));
+      s.kept_vertices.push_back(std::move(kept));
+    }
+    const std::vector<Level> levels = timed_build(m, s, "sheet 17x17, grid sets");
+    ASSERT_EQ(levels.size(), 3u);
+    for (int k = 0; k < 2; ++k) {
+      const Level& level = levels[static_cast<std::size_t>(1 - k)];
+      EXPECT_EQ(level.to_finest, s.kept_vertices[static_cast<std::size_t>(k)]) << "level " << 1 - k;
+      EXPECT_EQ(faces_without_mirror_image(level), 0) << "level " << 1 - k;
+    }
+    // Kept vertices collapse onto each other only when locked, so no vertex of any level has moved.
+    for (const Level& level : levels)
+      for (int i = 0; i < level.mesh.num_vertices(); ++i)
+        EXPECT_TRUE(level.mesh.V.row(i) == m.V.row(level.to_finest[static_cast<std::size_t>(i)]));
+    expect_valid_levels(levels, "grid sets");
+    expect_all_replays(levels);
+  }
+}
+
 bool same_collapse(const Collapse& a, const Collapse& b) {
   return a.removed == b.removed && a.kept == b.kept && a.removed_position == b.removed_position &&
          a.kept_position_before == b.kept_position_before && a.kept_position_after == b.kept_position_after &&
@@ -446,6 +512,23 @@ TEST(Decimation, UnreachableCountIsAnInputError) {
   LevelSettings s;
   s.target_vertex_counts = {5};
   expect_input_error(two, s, {"level 0 (coarsest)", "stopped at 8", "target of 5"});
+}
+
+TEST(Decimation, BadKeptVertexSetsAreInputErrors) {
+  const TriMesh m = make_rectangle(1.0, 1.0, 4, 4);  // 25 vertices; (i, j) at 5 j + i
+  LevelSettings s;
+  s.decimation.keep_boundary = false;
+  s.target_vertex_counts = {9};
+  s.kept_vertices = {{0, 2, 4, 10, 12, 14, 20, 22, 24}, {0, 4, 20, 24}};
+  expect_input_error(m, s, {"kept_vertices", "one list per entry"});
+  // A coarser list naming a vertex the finer level no longer has.
+  s.target_vertex_counts = {9, 5};
+  s.kept_vertices = {{0, 2, 4, 10, 12, 14, 20, 22, 24}, {0, 4, 6, 20, 24}};
+  expect_input_error(m, s, {"level 0 (coarsest)", "kept vertex 6", "not a vertex of level 1"});
+  // A target above the kept set leaves a vertex that is neither kept nor fixed.
+  s.target_vertex_counts = {10};
+  s.kept_vertices = {{0, 2, 4, 10, 12, 14, 20, 22, 24}};
+  expect_input_error(m, s, {"level 0", "target of 10 vertices leaves vertex", "neither kept nor fixed"});
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include "scene/scene_test_helpers.h"
 
 namespace pd {
@@ -105,6 +107,37 @@ TEST(SceneHierarchyConfig, BadObjectValuesNameTheKeyObjectAndLevel) {
   s["hierarchy"] = {{"levels", 2}};
   s["objects"][0]["hierarchy"] = {{"vertex_counts", {20, 12}}};
   expect_error(s, {"objects[0].hierarchy.vertex_counts", "1 for the scene's 2 levels"});
+}
+
+TEST(SceneHierarchyConfig, GridCoarseningIsReadForRectanglesAndBoxesWithTheirLattices) {
+  json s = two_objects();
+  s["objects"][0]["hierarchy"] = {{"coarsening", "grid"}};
+  s["objects"][1]["hierarchy"] = {{"coarsening", "grid"}};
+  s["objects"][0]["transform"] = json::parse(R"({"rotation": {"axis": [1, 0, 0], "angle_deg": -90}})");
+  const Scene scene = parse(s);
+  EXPECT_TRUE(scene.objects[0].hierarchy.grid_coarsening);
+  EXPECT_TRUE(scene.objects[1].hierarchy.grid_coarsening);
+  // The lattice comes from the mesh before its transform: vertex (i, j) of the 4 x 4 sheet.
+  ASSERT_TRUE(scene.objects[0].grid.has_value());
+  EXPECT_EQ(scene.objects[0].grid->cells, (std::array<int, 3>{4, 4, 0}));
+  EXPECT_EQ(scene.objects[0].grid->coords[7], (std::array<int, 3>{2, 1, 0}));
+  ASSERT_TRUE(scene.objects[1].grid.has_value());
+  EXPECT_EQ(scene.objects[1].grid->cells, (std::array<int, 3>{1, 1, 1}));
+  EXPECT_EQ(scene.objects[1].grid->coords.size(), 8u);
+  s["objects"][0]["hierarchy"] = {{"coarsening", "quadric"}};
+  EXPECT_FALSE(parse(s).objects[0].hierarchy.grid_coarsening);
+}
+
+TEST(SceneHierarchyConfig, GridCoarseningOfOtherMeshesOrWithCountsNamesTheKeyAndObject) {
+  json s = two_objects();
+  s["objects"][0]["mesh"] = json::parse(R"({"type": "icosphere", "radius": 0.5, "subdivisions": 1})");
+  s["objects"][0]["hierarchy"] = {{"coarsening", "grid"}};
+  expect_error(s, {"objects[0].hierarchy.coarsening", "\"rectangle\" or \"box\"", "\"sheet\""});
+  s = two_objects();
+  s["objects"][0]["hierarchy"] = {{"coarsening", "grid"}, {"vertex_counts", {12, 8, 4}}};
+  expect_error(s, {"objects[0].hierarchy.vertex_counts", "left out", "coarsening \"grid\"", "\"sheet\""});
+  s["objects"][0]["hierarchy"] = {{"coarsening", "regular"}};
+  expect_error(s, {"objects[0].hierarchy.coarsening", "regular"});
 }
 
 }  // namespace
