@@ -4,8 +4,8 @@ step (issue 16): the two runs did not move alike. With the quadric decimation th
 sheet (100 of 441 vertices, an irregular triangulation) tips the landing cube over, the refinement
 follows the preview's motion (PD eq. 5), and a cube rocking on an edge takes more iterations per
 step than the level cube of the direct finest run on its regular 21 x 21 grid. The scene now uses
-`coarsening: "grid"` (symmetric sub-grids); `--quadric` puts back the old vertex counts
-(200 / 100 for the sheet, 20 / 8 for the cube) to compare.
+`coarsening: "grid"` (symmetric sub-grids); `--quadric` puts back the scene as it was (vertex
+counts 200 / 100 for the sheet and 20 / 8 for the cube) to compare.
 
 For scenes/cube-trampoline.json and with the cube dropped already tilted (so that the
 direct run rocks too), runs `pd simulate` progressively and directly on the finest mesh, both at
@@ -65,7 +65,7 @@ def main():
     pd = os.path.join(a.build, "client", "pd")
     scene = json.load(open(SCENE))
     sheet_vertices = (scene["objects"][0]["mesh"]["cells"][0] + 1) * (scene["objects"][0]["mesh"]["cells"][1] + 1)
-    if a.quadric:
+    if a.quadric:  # the scene as it was before 2026-12-06's grid coarsening
         scene["objects"][0]["hierarchy"] = {"vertex_counts": [200, 100]}
         scene["objects"][1]["hierarchy"] = {"vertex_counts": [20, 8]}
     checked = list(range(40, a.frames + 1, 20))

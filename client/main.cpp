@@ -209,8 +209,8 @@ int main(int argc, char** argv) {
       ->transform(level_count());
   simulate->add_flag("--preview-only", sim.preview_only, "progressive only: stop after the preview (level 0)");
   simulate->add_option("--hessian", sim.hessian,
-                       "progressive only: Hessian of the prolonged elasticity on every coarse level (default auto: the "
-                       "scene's solver.preview_hessian, else coarse-first, for the preview; lagged for the levels between)")
+                       "progressive only: Hessian of the prolonged elasticity (default auto: coarse-first for the preview, "
+                       "lagged for the levels between)")
       ->transform(hessian_kind());
   simulate->add_option("--threads", sim.threads,
                        "Threads for the element loops (energies, Hessians, contact pairs; default: every core); "

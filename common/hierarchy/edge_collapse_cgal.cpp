@@ -106,15 +106,6 @@ struct State {
     return false;
   }
 
-  int degree(VI v) const {
-    int d = 0;
-    for (HI h : CGAL::halfedges_around_target(v, *mesh)) {
-      (void)h;
-      ++d;
-    }
-    return d;
-  }
-
   // kOntoLocked: which end of the edge may be removed into the other, or none. A free (unlocked)
   // interior vertex goes into a locked neighbour; a free boundary vertex into a locked boundary
   // neighbour along a straight boundary edge. Returns {removed, kept}.
@@ -242,8 +233,11 @@ struct Filter {
   }
 };
 
-// kOntoLocked's order (see CollapseRule): the removed vertex's degree first, then the kept vertex's
-// distance to the centre as a fraction below 1 of the bounding-box diagonal. Edges that cannot
+// kOntoLocked's order (see CollapseRule), as one number: the edge's length in millionths of the
+// bounding-box diagonal (so that lengths equal but for rounding tie); then the kept vertex's distance
+// to the centre in ten-thousandths of the diagonal; then, between equal edges into kept vertices
+// equally far from the centre (a vertex on a diagonal of a square grid), the edge nearer the x axis,
+// then the y axis, which is the same choice on both sides of each centre line. Edges that cannot
 // collapse under the rule cost the most; the placement turns them down when they come up.
 struct OntoLockedCost {
   State* s;
@@ -253,8 +247,13 @@ struct OntoLockedCost {
   boost::optional<double> operator()(const Profile& profile, const Placement&) const {
     const auto ends = s->onto_locked(profile.v0(), profile.v1(), profile.is_v0_v1_a_border() || profile.is_v1_v0_a_border());
     if (!ends) return 1e12;
-    const double distance = (to_vec(s->point(ends->second)) - s->centre).norm() / diagonal;
-    return static_cast<double>(s->degree(ends->first)) + std::min(distance, 0.999);
+    const Vec3 kept = to_vec(s->point(ends->second));
+    const Vec3 edge = kept - to_vec(s->point(ends->first));
+    const double length = edge.norm();
+    const double distance = std::min((kept - s->centre).norm() / diagonal, 1.0);
+    const double off_axis =
+        length > 0.0 ? (1.0 - std::abs(edge.x()) / length) + 1e-3 * (1.0 - std::abs(edge.y()) / length) : 0.0;
+    return std::round(length / diagonal * 1e6) + 0.5e-4 * std::round(distance * 1e4) + 1e-5 * off_axis;
   }
 };
 

@@ -36,13 +36,18 @@ enum class CollapseRule {
   kQuadric,
   // Only onto a locked vertex: a free vertex merges into a locked neighbour, which stays where it is
   // (a free boundary vertex only along a straight boundary edge); two free vertices never merge.
-  // Order: the removed vertex's current degree, lowest first, then the kept neighbour's distance to
-  // the centre of the mesh's bounding box, nearest first. On a grid whose kept lines are every other
-  // line (LevelSettings::kept_vertices from grid_level_vertices) this removes the vertices between
-  // kept lines first, which leaves each kept line an edge chain, then the cell centres, each
-  // leaving the diagonal that points toward the centre, so a mirror-symmetric set gives a
-  // mirror-symmetric mesh. The quadric order instead merges free vertices with each other and can
-  // leave one inside a polygon of collinear kept vertices that no single collapse removes.
+  // Order: the shortest edge first, then the kept neighbour nearest the centre of the mesh's
+  // bounding box, then the edge nearest the x axis (OntoLockedCost in the .cpp). On a grid whose
+  // kept lines are every other line (LevelSettings::kept_vertices from grid_level_vertices) this
+  // first removes the vertices on kept lines, whose kept neighbours along the line are the nearest,
+  // which leaves each kept line an edge chain; then the cell centres, each into the corner nearest
+  // the centre, leaving the diagonal that points toward it. So a set symmetric about the centre lines
+  // gives a mesh that is too. Ordering by the removed vertex's degree did the same on the finest
+  // grid, but on the next one, where every vertex has degree 6, the centre vertex absorbed whole
+  // cells and fanned out toward the border, and that coarse mesh's own Hessian was a poor stand-in
+  // for the preview (docs/performance.md, "A symmetric coarse trampoline"). The quadric order merges
+  // free vertices with each other and can leave one inside a polygon of collinear kept vertices that
+  // no single collapse removes.
   kOntoLocked,
 };
 

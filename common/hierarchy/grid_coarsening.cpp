@@ -45,54 +45,15 @@ GridLattice lattice_of(const Positions& V, const std::array<int, 3>& cells) {
   return lattice;
 }
 
-namespace {
-
-// The first line off side `side` (0: c = 0, 1: c = cells) that depth k keeps, as a coordinate;
-// `cells` when there is none.
-int first_kept_line(int cells, int k, int side) {
-  for (int i = 1; i < cells; ++i)
-    if (kept_coordinate(i, cells, k)) return side == 0 ? i : cells - i;
-  return side == 0 ? cells : 0;
-}
-
-bool kept_by_lattice(const GridLattice& lattice, std::size_t v, int k) {
-  for (std::size_t a = 0; a < 3; ++a)
-    if (lattice.cells[a] > 0 && !kept_coordinate(lattice.coords[v][a], lattice.cells[a], k)) return false;
-  return true;
-}
-
-}  // namespace
-
-std::vector<std::vector<int>> grid_level_vertices(const GridLattice& lattice, int coarser_levels,
-                                                  const std::vector<char>& fixed) {
+std::vector<std::vector<int>> grid_level_vertices(const GridLattice& lattice, int coarser_levels) {
   if (coarser_levels < 0) throw std::invalid_argument("grid_level_vertices: coarser_levels must be >= 0");
-  if (!fixed.empty() && fixed.size() != lattice.coords.size())
-    throw std::invalid_argument("grid_level_vertices: one fixed flag per vertex, or none");
-  // fixed_side[a][s]: every vertex on side s of axis a is fixed.
-  bool fixed_side[3][2] = {{false, false}, {false, false}, {false, false}};
-  for (std::size_t a = 0; a < 3; ++a)
-    for (int side = 0; side < 2 && !fixed.empty(); ++side) {
-      if (lattice.cells[a] == 0) continue;
-      const int c = side == 0 ? 0 : lattice.cells[a];
-      bool all = true, any = false;
-      for (std::size_t v = 0; v < lattice.coords.size(); ++v)
-        if (lattice.coords[v][a] == c) {
-          any = true;
-          all = all && fixed[v] != 0;
-        }
-      fixed_side[a][side] = any && all;
-    }
   std::vector<std::vector<int>> sets;
   for (int k = 1; k <= coarser_levels; ++k) {
     std::vector<int> ids;
     for (std::size_t v = 0; v < lattice.coords.size(); ++v) {
-      bool kept = kept_by_lattice(lattice, v, k);
-      // Grading next to a fixed side (see the header): from depth 2 on, the first kept line keeps
-      // depth k-1's points.
-      if (!kept && k >= 2 && kept_by_lattice(lattice, v, k - 1))
-        for (std::size_t a = 0; a < 3 && !kept; ++a)
-          for (int side = 0; side < 2 && !kept; ++side)
-            kept = fixed_side[a][side] && lattice.coords[v][a] == first_kept_line(lattice.cells[a], k, side);
+      bool kept = true;
+      for (std::size_t a = 0; a < 3; ++a)
+        if (lattice.cells[a] > 0) kept = kept && kept_coordinate(lattice.coords[v][a], lattice.cells[a], k);
       if (kept) ids.push_back(static_cast<int>(v));
     }
     sets.push_back(std::move(ids));

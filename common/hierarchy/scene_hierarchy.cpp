@@ -59,7 +59,7 @@ ObjectPlan plan_grid(const SceneObject& obj, const Scene& scene, std::size_t k, 
   }
   plan.by_ratio = false;
   plan.counts.assign(static_cast<std::size_t>(L) + 1, n);
-  const std::vector<std::vector<int>> grids = grid_level_vertices(*obj.grid, L, fixed);
+  const std::vector<std::vector<int>> grids = grid_level_vertices(*obj.grid, L);
   for (int i = 0; i < L; ++i) {
     const auto l = static_cast<std::size_t>(L - 1 - i);
     std::vector<char> keep = fixed;

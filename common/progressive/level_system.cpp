@@ -92,9 +92,7 @@ SceneSystem build_level_system(const Scene& scene, const SceneHierarchy& hierarc
   const Eigen::VectorXd finest_initial = build_initial_positions(scene);
   const SceneLevel& lv = hierarchy.levels[static_cast<std::size_t>(level)];
   const SceneLevel& finest = hierarchy.levels.back();
-  const ProlongedHessian hessian = options.hessian.value_or(
-      level == 0 && !scene.solver.preview_hessian.empty() ? parse_prolonged_hessian(scene.solver.preview_hessian)
-                                                          : auto_prolonged_hessian(level));
+  const ProlongedHessian hessian = options.hessian.value_or(auto_prolonged_hessian(level));
   sys.prolongation = std::make_shared<ProlongationState>(*lv.to_finest_prolongation, stacked(lv.rest.V), options.gradient);
   // Every deformable object's shell terms in one prolonged term (see prolonged_term.h), in object
   // order and, within an object, in add_shell_forces' order (the frame statistics' key order).

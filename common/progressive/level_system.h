@@ -50,8 +50,7 @@ const std::vector<std::string>& level_hessian_names();
 std::optional<ProlongedHessian> parse_level_hessian(const std::string& name);
 
 struct LevelSystemOptions {
-  // coarse levels only (see prolonged_term.h); nullopt: the scene's solver.preview_hessian on level 0
-  // when it names one, else auto_prolonged_hessian(level)
+  // coarse levels only (see prolonged_term.h); nullopt: auto_prolonged_hessian(level)
   std::optional<ProlongedHessian> hessian;
   // Exact (the default) or PSQ's frozen offsets; library-only, for measuring the difference.
   ProlongedGradient gradient = ProlongedGradient::Exact;

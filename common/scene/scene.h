@@ -161,10 +161,6 @@ struct SolverSettings {
   FrictionStopping friction_stopping = FrictionStopping::Contacts;
   int max_newton_iterations = 200;
   HessianProjection projection = HessianProjection::ExactFirst;  // docs/performance.md, "Which Hessian projection"
-  // The preview's (level 0's) prolonged Hessian when a run names none (pd --hessian, SubmitJob.hessian):
-  // empty for the automatic choice (coarse-first), else a parse_prolonged_hessian name
-  // (progressive/prolonged_term.h), checked by the reader.
-  std::string preview_hessian;
 };
 
 // The scene-wide level hierarchy (docs/scene-format.md, "hierarchy").

@@ -538,7 +538,7 @@ Wind read_wind(const JsonNode& node) {
 }
 
 SolverSettings read_solver(const JsonNode& node) {
-  node.expect_keys({"tolerance", "max_newton_iterations", "hessian_projection", "friction_stopping", "preview_hessian"});
+  node.expect_keys({"tolerance", "max_newton_iterations", "hessian_projection", "friction_stopping"});
   SolverSettings s;
   if (auto v = node.optional("tolerance")) s.tolerance = v->in_range(limits::kTolerance);
   if (auto v = node.optional("max_newton_iterations")) s.max_newton_iterations = as_int(v->integer(1, 1000000));
@@ -549,8 +549,6 @@ SolverSettings read_solver(const JsonNode& node) {
     const std::string rule = v->choice({"contacts", "uniform"}, "friction stopping rule");
     s.friction_stopping = rule == "uniform" ? FrictionStopping::Uniform : FrictionStopping::Contacts;
   }
-  if (auto v = node.optional("preview_hessian"))
-    s.preview_hessian = v->choice({"coarse-first", "lagged", "galerkin", "coarse"}, "preview Hessian");
   return s;
 }
 

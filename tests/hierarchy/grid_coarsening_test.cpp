@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <iterator>
 #include <stdexcept>
 
 #include "geometry/shapes.h"
@@ -88,29 +87,6 @@ TEST(GridLevelVertices, ABoxOfThreeCellsKeepsItsEightCorners) {
     for (int v : s)
       for (int a = 0; a < 3; ++a) EXPECT_DOUBLE_EQ(std::abs(box.V(v, a)), 0.1);
   }
-}
-
-// Next to a side whose vertices are all fixed, the first kept line keeps the next finer level's
-// points from depth 2 on; a side with a free vertex does not grade.
-TEST(GridLevelVertices, TheFirstLineOffAFixedSideKeepsTheFinerLevelsPoints) {
-  const int n = 20;
-  const GridLattice g = rectangle_lattice(n, n);
-  std::vector<char> fixed(g.coords.size(), 0);
-  for (std::size_t v = 0; v < g.coords.size(); ++v)
-    if (g.coords[v][0] == 0) fixed[v] = 1;  // the side x = 0 only
-  const auto plain = grid_level_vertices(g, 2);
-  const auto graded = grid_level_vertices(g, 2, fixed);
-  EXPECT_EQ(graded[0], plain[0]);  // depth 1: no grading
-  std::vector<int> added;
-  std::set_difference(graded[1].begin(), graded[1].end(), plain[1].begin(), plain[1].end(), std::back_inserter(added));
-  // Line x = 2 (the first kept line off x = 0 at depth 2) gains depth 1's points, j = 4, 8, 12, 16.
-  std::vector<int> expected;
-  for (int j : {4, 8, 12, 16}) expected.push_back(j * (n + 1) + 2);
-  EXPECT_EQ(added, expected);
-  EXPECT_TRUE(std::includes(graded[0].begin(), graded[0].end(), graded[1].begin(), graded[1].end()));
-  fixed[0] = 0;  // one free vertex on the side: no grading
-  EXPECT_EQ(grid_level_vertices(g, 2, fixed), plain);
-  EXPECT_THROW(grid_level_vertices(g, 2, std::vector<char>(3, 1)), std::invalid_argument);
 }
 
 TEST(GridLevelVertices, NoCoarserLevelGivesNoSetAndBadArgumentsThrow) {

@@ -103,26 +103,6 @@ TEST(LevelSystem, CoarsePreviewReportsTheFinestLevelsEnergiesAndStartsWithoutGho
   }
 }
 
-// The first Hessian assembly of a step of `level` at a bent state (the rest state's Hessians are too
-// alike to tell the modes apart), with the prolonged Hessian `mode` (nullopt: the automatic one).
-Eigen::MatrixXd first_step_assembly(const Scene& scene, const SceneHierarchy& h, int level,
-                                    std::optional<ProlongedHessian> mode) {
-  LevelSystemOptions options;
-  options.hessian = mode;
-  SceneSystem sys = build_level_system(scene, h, level, options);
-  Eigen::VectorXd x = sys.x0;
-  for (Eigen::Index i = 0; i < x.size(); i += 3) x[i + 2] += 0.05 * std::sin(7.0 * x[i]) * x[i + 1];
-  StepStart start;
-  start.h = scene.time_step;
-  start.time_end = scene.time_step;
-  start.x = &sys.x0;
-  start.v = &sys.v0;
-  sys.ip.begin_step(start);
-  HessianAssembly H;
-  sys.ip.hessian(x, HessianProjection::Clamp, H);
-  return Eigen::MatrixXd(H.finish(nullptr));
-}
-
 // "auto" (no Hessian named) is coarse-first on the preview and lagged on the levels between: the
 // first assembly of a step gives, bit for bit, the matrix of the mode named explicitly, and the two
 // modes' matrices differ there (so the comparison can tell them apart).
@@ -131,8 +111,22 @@ TEST(LevelSystem, AutoHessianIsCoarseFirstForThePreviewAndLaggedForTheLevelsBetw
   scene.hierarchy.levels = 3;
   const SceneHierarchy h = build_scene_hierarchy(scene);
   ASSERT_EQ(h.finest(), 2);
+  // The first assembly of a step at a bent state (the rest state's Hessians are too alike).
   auto first_assembly = [&](int level, std::optional<ProlongedHessian> mode) {
-    return first_step_assembly(scene, h, level, mode);
+    LevelSystemOptions options;
+    options.hessian = mode;
+    SceneSystem sys = build_level_system(scene, h, level, options);
+    Eigen::VectorXd x = sys.x0;
+    for (Eigen::Index i = 0; i < x.size(); i += 3) x[i + 2] += 0.05 * std::sin(7.0 * x[i]) * x[i + 1];
+    StepStart start;
+    start.h = scene.time_step;
+    start.time_end = scene.time_step;
+    start.x = &sys.x0;
+    start.v = &sys.v0;
+    sys.ip.begin_step(start);
+    HessianAssembly H;
+    sys.ip.hessian(x, HessianProjection::Clamp, H);
+    return Eigen::MatrixXd(H.finish(nullptr));
   };
   EXPECT_EQ(auto_prolonged_hessian(0), ProlongedHessian::CoarseFirst);
   EXPECT_EQ(auto_prolonged_hessian(1), ProlongedHessian::Lagged);
@@ -143,28 +137,6 @@ TEST(LevelSystem, AutoHessianIsCoarseFirstForThePreviewAndLaggedForTheLevelsBetw
     EXPECT_GT((coarse_first - lagged).norm(), 1e-6 * lagged.norm()) << "level " << level;
     EXPECT_EQ(automatic, level == 0 ? coarse_first : lagged) << "level " << level;
   }
-}
-
-// The scene's solver.preview_hessian replaces the automatic choice on the preview only, and a run's
-// own choice (options.hessian) replaces both.
-TEST(LevelSystem, TheScenesPreviewHessianAppliesToThePreviewUnlessTheRunNamesOne) {
-  Scene scene = hanging_sheet(1);
-  scene.hierarchy.levels = 3;
-  const SceneHierarchy h = build_scene_hierarchy(scene);
-  auto first_assembly = [&](const Scene& s, int level, std::optional<ProlongedHessian> mode) {
-    return first_step_assembly(s, h, level, mode);
-  };
-  Scene lagged_preview = scene;
-  lagged_preview.solver.preview_hessian = "lagged";
-  const Eigen::MatrixXd lagged = first_assembly(scene, 0, ProlongedHessian::Lagged);
-  const Eigen::MatrixXd coarse_first = first_assembly(scene, 0, ProlongedHessian::CoarseFirst);
-  ASSERT_GT((coarse_first - lagged).norm(), 1e-6 * lagged.norm());
-  EXPECT_EQ(first_assembly(lagged_preview, 0, std::nullopt), lagged);
-  EXPECT_EQ(first_assembly(lagged_preview, 0, ProlongedHessian::CoarseFirst), coarse_first);
-  // Level 1 keeps its automatic lagged Hessian whatever the preview's: set the preview to coarse-first.
-  Scene coarse_first_preview = scene;
-  coarse_first_preview.solver.preview_hessian = "coarse-first";
-  EXPECT_EQ(first_assembly(coarse_first_preview, 1, std::nullopt), first_assembly(scene, 1, ProlongedHessian::Lagged));
 }
 
 TEST(LevelSystem, LevelHessianNamesAreAutoOrAProlongedHessianAndAnythingElseIsRefusedNamingTheWords) {

@@ -40,7 +40,7 @@ TEST(SceneFile, FullSceneParsesToTheGivenValues) {
   s["name"] = "full";
   s["gravity"] = {0, 0, -9.8};
   s["solver"] = {{"tolerance", 1e-4}, {"max_newton_iterations", 50}, {"hessian_projection", "abs"},
-                 {"friction_stopping", "uniform"}, {"preview_hessian", "lagged"}};
+                 {"friction_stopping", "uniform"}};
   s["wind"] = {{"air_velocity", {0, 0, 4}}, {"air_density", 1.25}, {"drag_coefficient", 0.8},
                {"gust_amplitude", 0.5}, {"gust_frequency", 0.7}};
   json& o = s["objects"][0];
@@ -72,7 +72,6 @@ TEST(SceneFile, FullSceneParsesToTheGivenValues) {
   EXPECT_EQ(scene.solver.max_newton_iterations, 50);
   EXPECT_EQ(scene.solver.projection, HessianProjection::Abs);
   EXPECT_EQ(scene.solver.friction_stopping, FrictionStopping::Uniform);
-  EXPECT_EQ(scene.solver.preview_hessian, "lagged");
   ASSERT_TRUE(scene.wind.has_value());
   EXPECT_TRUE(scene.wind->air_velocity.isApprox(Vec3(0, 0, 4)));
   EXPECT_DOUBLE_EQ(scene.wind->air_density, 1.25);
@@ -133,7 +132,6 @@ TEST(SceneFile, OmittedOptionalKeysGetTheirDocumentedDefaults) {
   EXPECT_DOUBLE_EQ(scene.solver.tolerance, 1e-3);
   EXPECT_EQ(scene.solver.max_newton_iterations, 200);
   EXPECT_EQ(scene.solver.friction_stopping, FrictionStopping::Contacts);
-  EXPECT_TRUE(scene.solver.preview_hessian.empty());
   EXPECT_EQ(scene.solver.projection, HessianProjection::ExactFirst);
   const SceneObject& o = scene.objects.at(0);
   EXPECT_EQ(o.name, "object_0");
@@ -446,8 +444,6 @@ TEST(SceneFileErrors, UnknownChoicesListTheAllowedValues) {
   s = valid_scene();
   s["solver"] = {{"friction_stopping", "everywhere"}};
   expect_error(s, {"solver.friction_stopping: unknown friction stopping rule", "\"contacts\", \"uniform\""});
-  s["solver"] = {{"preview_hessian", "auto"}};  // "auto" is the key left out, not a value
-  expect_error(s, {"solver.preview_hessian: unknown preview Hessian", "\"coarse-first\", \"lagged\""});
   s = valid_scene();
   s["objects"][0]["pressure"] = {{"model", "van_der_waals"}, {"pressure", 10}};
   expect_error(s, {"objects[0].pressure.model: unknown pressure model", "\"constant\", \"ideal_gas\""});
