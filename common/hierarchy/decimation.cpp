@@ -137,6 +137,12 @@ std::vector<char> boundary_turns(const TriMesh& mesh) {
   return turns;
 }
 
+// Every id v of `tris` replaced by map[v]; an increasing map keeps canonical rotations and sorted order.
+void relabel(std::vector<Tri>& tris, const std::vector<int>& map) {
+  for (Tri& t : tris)
+    for (int& v : t) v = map[static_cast<std::size_t>(v)];
+}
+
 // Builds level l's data from the run's state after its collapses. `finer_map` maps finest ids to
 // level l+1 ids (-1 if not there); `collapses` is the run's records for this level, finest ids.
 Level assemble_level(const detail::CollapseSnapshot& state, const std::vector<int>& finer_to_finest,
@@ -170,8 +176,8 @@ Level assemble_level(const detail::CollapseSnapshot& state, const std::vector<in
   for (Collapse& c : collapses) {
     c.removed = to_finer(c.removed);
     c.kept = to_finer(c.kept);
-    for (Tri& t : c.faces_before) for (int& v : t) v = to_finer(v);
-    for (Tri& t : c.faces_after) for (int& v : t) v = to_finer(v);
+    relabel(c.faces_before, finer_map);
+    relabel(c.faces_after, finer_map);
   }
   level.collapses = std::move(collapses);
   return level;
@@ -193,15 +199,15 @@ detail::CollapseSnapshot snapshot_in_finest_ids(const detail::CollapseSnapshot& 
     out.alive[static_cast<std::size_t>(f)] = s.alive[i];
   }
   out.faces = s.faces;
-  for (Tri& t : out.faces) for (int& v : t) v = to_finest[static_cast<std::size_t>(v)];
+  relabel(out.faces, to_finest);
   return out;
 }
 
 // build_levels with prescribed vertex sets (LevelSettings::kept_vertices): each level decimated from
 // the one above it in a run of its own, its kept vertices locked. `levels` has the finest level set;
-// `locked` and `boundary` are by finest id.
+// `locked` (pins) and `fixed` (pins and the boundary vertices never removed) are by finest id.
 void build_kept_levels(std::vector<Level>& levels, const std::vector<int>& targets, const std::vector<char>& locked,
-                       const std::vector<char>& boundary, const LevelSettings& settings) {
+                       const std::vector<char>& fixed_anyway, const LevelSettings& settings) {
   const int L = static_cast<int>(targets.size());
   const std::size_t n = locked.size();
   std::vector<int> finer_map(n);
@@ -242,15 +248,15 @@ void build_kept_levels(std::vector<Level>& levels, const std::vector<int>& targe
     }
     const detail::CollapseSnapshot state = snapshot_in_finest_ids(run.reached.front(), finer.to_finest, static_cast<int>(n));
     for (std::size_t f = 0; f < n; ++f)
-      if (state.alive[f] && !keep[f] && !locked[f] && !boundary[f])
+      if (state.alive[f] && !keep[f] && !fixed_anyway[f])
         throw InputError(name + ": the target of " + std::to_string(t) + " vertices leaves vertex " + std::to_string(f) +
                          ", which is neither kept nor fixed (the target must count the kept and fixed vertices)");
     std::vector<Collapse> records(run.collapses.begin(), run.collapses.begin() + state.num_collapses);
     for (Collapse& c : records) {
       c.removed = finer.to_finest[static_cast<std::size_t>(c.removed)];
       c.kept = finer.to_finest[static_cast<std::size_t>(c.kept)];
-      for (Tri& tri : c.faces_before) for (int& v : tri) v = finer.to_finest[static_cast<std::size_t>(v)];
-      for (Tri& tri : c.faces_after) for (int& v : tri) v = finer.to_finest[static_cast<std::size_t>(v)];
+      relabel(c.faces_before, finer.to_finest);
+      relabel(c.faces_after, finer.to_finest);
     }
     std::vector<int> this_map;
     levels[static_cast<std::size_t>(l)] = assemble_level(state, finer.to_finest, finer_map, std::move(records), this_map);
@@ -295,10 +301,12 @@ std::vector<Level> build_levels(const TriMesh& finest, const LevelSettings& sett
   // Fixed: never removed. Locked vertices; boundary vertices (keep_boundary) or the boundary's
   // corners and curved stretches (otherwise).
   int num_locked = 0, num_fixed = 0, num_fixed_boundary = 0;
+  std::vector<char> fixed(static_cast<std::size_t>(n), 0);
   for (int i = 0; i < n; ++i) {
     const auto u = static_cast<std::size_t>(i);
     const bool lk = locked[u] != 0, bd = topo.boundary_vertex[u] != 0;
     const bool fixed_bd = bd && (ds.keep_boundary || turns[u] != 0);
+    fixed[u] = (lk || fixed_bd) ? 1 : 0;
     num_locked += lk ? 1 : 0;
     num_fixed += (lk || fixed_bd) ? 1 : 0;
     num_fixed_boundary += (fixed_bd && !lk) ? 1 : 0;
@@ -338,7 +346,7 @@ std::vector<Level> build_levels(const TriMesh& finest, const LevelSettings& sett
   if (!settings.kept_vertices.empty()) {
     if (by_ratio || settings.kept_vertices.size() != targets.size())
       throw InputError("level settings: kept_vertices needs one list per entry of target_vertex_counts");
-    build_kept_levels(levels, targets, locked, topo.boundary_vertex, settings);
+    build_kept_levels(levels, targets, locked, fixed, settings);
     return levels;
   }
 
