@@ -266,6 +266,16 @@ void build_kept_levels(std::vector<Level>& levels, const std::vector<int>& targe
 
 }  // namespace
 
+std::vector<char> fixed_vertices(const TriMesh& mesh, const std::vector<int>& locked, bool keep_boundary) {
+  const Topology topo = build_topology(mesh);
+  const std::vector<char> turns = keep_boundary ? std::vector<char>() : boundary_turns(mesh);
+  std::vector<char> fixed(static_cast<std::size_t>(mesh.num_vertices()), 0);
+  for (std::size_t u = 0; u < fixed.size(); ++u)
+    fixed[u] = topo.boundary_vertex[u] != 0 && (keep_boundary || turns[u] != 0) ? 1 : 0;
+  for (int id : locked) fixed[static_cast<std::size_t>(id)] = 1;
+  return fixed;
+}
+
 std::vector<Level> build_levels(const TriMesh& finest, const LevelSettings& settings) {
   const DecimationSettings& ds = settings.decimation;
   const int n = finest.num_vertices();
@@ -297,20 +307,13 @@ std::vector<Level> build_levels(const TriMesh& finest, const LevelSettings& sett
     locked[static_cast<std::size_t>(id)] = 1;
   }
   const Topology topo = build_topology(finest);
-  const std::vector<char> turns = ds.keep_boundary ? std::vector<char>() : boundary_turns(finest);
-  // Fixed: never removed. Locked vertices; boundary vertices (keep_boundary) or the boundary's
-  // corners and curved stretches (otherwise).
-  int num_locked = 0, num_fixed = 0, num_fixed_boundary = 0;
-  std::vector<char> fixed(static_cast<std::size_t>(n), 0);
-  for (int i = 0; i < n; ++i) {
-    const auto u = static_cast<std::size_t>(i);
-    const bool lk = locked[u] != 0, bd = topo.boundary_vertex[u] != 0;
-    const bool fixed_bd = bd && (ds.keep_boundary || turns[u] != 0);
-    fixed[u] = (lk || fixed_bd) ? 1 : 0;
-    num_locked += lk ? 1 : 0;
-    num_fixed += (lk || fixed_bd) ? 1 : 0;
-    num_fixed_boundary += (fixed_bd && !lk) ? 1 : 0;
+  const std::vector<char> fixed = fixed_vertices(finest, settings.locked_vertices, ds.keep_boundary);
+  int num_locked = 0, num_fixed = 0;
+  for (std::size_t u = 0; u < fixed.size(); ++u) {
+    num_locked += locked[u] != 0 ? 1 : 0;
+    num_fixed += fixed[u] != 0 ? 1 : 0;
   }
+  const int num_fixed_boundary = num_fixed - num_locked;
   const std::string fixed_detail =
       std::to_string(num_fixed) + " vertices are never removed (" + std::to_string(num_locked) + " locked, " +
       std::to_string(num_fixed_boundary) + " other " +

@@ -158,6 +158,11 @@ struct Level {
   std::vector<Collapse> collapses;     // from level l+1's mesh to this one, in order; level l+1 ids
 };
 
+// Which vertices of `mesh` no level may remove (by id): the `locked` ones, and the boundary vertices
+// when keep_boundary, or only those where the boundary turns (corners, curved stretches) otherwise.
+// Requires a mesh that passed validate_mesh and locked ids in range.
+std::vector<char> fixed_vertices(const TriMesh& mesh, const std::vector<int>& locked, bool keep_boundary);
+
 // levels[0] is the coarsest, levels[L] = levels.back() the finest (a copy of `finest` with its face
 // order unchanged, identity to_finest, no collapses). Replaying level l's collapses backwards from level l's mesh gives level l+1's mesh
 // (faces as sets of Tri, and positions) exactly.

@@ -8,7 +8,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "geometry/topology.h"
 #include "hierarchy/grid_coarsening.h"
 #include "hierarchy/intrinsic_location.h"
 #include "hierarchy/split_batches.h"
@@ -39,7 +38,7 @@ struct ObjectPlan {
 };
 
 // The plan of a `coarsening: "grid"` object: each coarser level keeps its sub-grid
-// (grid_level_vertices) and the vertices fixed anyway (pins, the boundary when kept), whose number is
+// (grid_level_vertices) and the vertices fixed anyway (fixed_vertices), whose number is
 // its vertex count; a level whose set equals the finer one's is a copy, as with repeated counts.
 ObjectPlan plan_grid(const SceneObject& obj, const Scene& scene, std::size_t k, ObjectPlan plan) {
   const int L = scene.hierarchy.levels - 1;
@@ -50,13 +49,8 @@ ObjectPlan plan_grid(const SceneObject& obj, const Scene& scene, std::size_t k, 
   if (static_cast<int>(obj.grid->coords.size()) != n)
     throw InputError(object_prefix(scene, k) + "hierarchy.coarsening: the mesh has " + std::to_string(n) +
                      " vertices, its grid " + std::to_string(obj.grid->coords.size()));
-  std::vector<char> fixed(static_cast<std::size_t>(n), 0);
-  for (int v : plan.settings.locked_vertices) fixed[static_cast<std::size_t>(v)] = 1;
-  if (plan.settings.decimation.keep_boundary) {
-    const Topology topo = build_topology(obj.rest);
-    for (int v = 0; v < n; ++v)
-      if (topo.boundary_vertex[static_cast<std::size_t>(v)]) fixed[static_cast<std::size_t>(v)] = 1;
-  }
+  const std::vector<char> fixed =
+      fixed_vertices(obj.rest, plan.settings.locked_vertices, plan.settings.decimation.keep_boundary);
   plan.by_ratio = false;
   plan.counts.assign(static_cast<std::size_t>(L) + 1, n);
   const std::vector<std::vector<int>> grids = grid_level_vertices(*obj.grid, L);

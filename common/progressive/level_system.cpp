@@ -22,6 +22,7 @@ Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int le
     const Level& lv = hierarchy.objects[o].levels[static_cast<std::size_t>(level)];
     SceneObject& obj = out.objects[o];
     obj.rest = lv.mesh;
+    obj.grid.reset();  // the lattice is the finest mesh's; a level mesh has none
     obj.initial = lv.mesh.V;
     std::vector<int> level_of(static_cast<std::size_t>(finest.rest.num_vertices()), -1);
     for (std::size_t i = 0; i < lv.to_finest.size(); ++i) {

@@ -31,8 +31,9 @@ namespace pd {
 // The scene with every object replaced by its level-l mesh: rest shape, initial positions (level
 // rest + the finest initial displacement of the same vertex: level vertices are finest vertices,
 // so a posed start carries over vertex by vertex), pins mapped to the level's ids (pinned vertices
-// are kept at every level by the decimation). Level L gives the scene itself. Throws
-// std::invalid_argument for a level outside [0, L], or a pinned vertex missing from the level.
+// are kept at every level by the decimation), no grid lattice (SceneObject::grid describes the
+// finest mesh). Level L gives the scene itself. Throws std::invalid_argument for a level outside
+// [0, L], or a pinned vertex missing from the level.
 Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int level);
 
 // The prolonged Hessian of level `level` when a run names none ("auto", the default): coarse-first

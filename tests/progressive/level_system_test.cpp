@@ -12,6 +12,7 @@
 #include <string>
 
 #include "geometry/shapes.h"
+#include "hierarchy/grid_coarsening.h"
 #include "progressive/test_scenes.h"
 
 namespace pd {
@@ -36,6 +37,7 @@ TEST(LevelSystem, SceneAtLevelCarriesPinsAndAPosedStartToTheLevelsVertices) {
   // A posed start: every vertex shifted by a position-dependent amount.
   SceneObject& obj = scene.objects[0];
   for (int v = 0; v < obj.initial.rows(); ++v) obj.initial(v, 2) += 0.1 * obj.rest.V(v, 0);
+  obj.grid = lattice_of(obj.rest.V, {8, 8, 0});  // as the reader gives a rectangle; quadric coarsening
   const SceneHierarchy h = build_scene_hierarchy(scene);
   const Scene coarse = scene_at_level(scene, h, 0);
   const Level& lv = h.objects[0].levels[0];
@@ -49,6 +51,9 @@ TEST(LevelSystem, SceneAtLevelCarriesPinsAndAPosedStartToTheLevelsVertices) {
   ASSERT_EQ(coarse.objects[0].pins[0].vertices.size(), 2u);
   for (int v : coarse.objects[0].pins[0].vertices)
     EXPECT_EQ(coarse.objects[0].rest.V.row(v), obj.rest.V.row(lv.to_finest[static_cast<std::size_t>(v)]));
+  // The lattice describes the finest mesh only.
+  EXPECT_FALSE(coarse.objects[0].grid.has_value());
+  EXPECT_TRUE(scene_at_level(scene, h, 1).objects[0].grid.has_value());
   EXPECT_EQ(scene_at_level(scene, h, 1).objects[0].rest.V, obj.rest.V);  // the finest level is the scene
   EXPECT_THROW(scene_at_level(scene, h, 2), std::invalid_argument);
   EXPECT_THROW(scene_at_level(scene, h, -1), std::invalid_argument);
