@@ -39,6 +39,14 @@ class EnergyTerm {
   }
   // grad += d value / d x.
   virtual void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const = 0;
+  // The same at a point x within a tiny distance of `reference` (a finite-difference neighbour:
+  // IncrementalPotential::hessian_product), for a term that can reuse work done for `reference`
+  // without changing the result beyond what the difference resolves: the contact barrier keeps
+  // reference's broad-phase pairs. Default: add_gradient(x, grad).
+  virtual void add_gradient_near(const Eigen::VectorXd& /*reference*/, const Eigen::VectorXd& x,
+                                 Eigen::VectorXd& grad) const {
+    add_gradient(x, grad);
+  }
   // Adds the Hessian, element by element, each element projected as `projection` says.
   virtual void add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                            HessianAssembly& hessian) const = 0;

@@ -11,6 +11,7 @@ FrameStats frame_stats(const FrameRecord& r) {
                {"projection_fallbacks", double(n.projection_fallbacks)},
                {"extended_steps", double(n.extended_steps)},
                {"exact_curvature_iterations", double(n.exact_curvature_iterations)},
+               {"curvature_probes", double(n.curvature_probes)},
                {"newton_converged", r.frame == 0 ? 1.0 : double(n.converged)},
                {"solve_seconds", r.seconds},
                {"assemble_seconds", n.assemble_seconds},

@@ -26,6 +26,13 @@ constexpr double kFrictionToleranceFraction = 0.1;
 // Newton iteration counts on drape-gear and spin-sphere within the spread that any change of the
 // steps brings (docs/performance.md, "The exact curvature behind a clamped step").
 constexpr int kExactCurvatureIterations = 30;
+// A coarse level's model Hessian: conjugate-gradient iterations on the true curvature for a step the
+// model got wrong (solver/newton.h), down to 1e-1 of the preconditioned residual. Each costs a
+// gradient, so the tolerance is loose. spin-sphere's preview, 30 frames: 10 / 1e-1, 20 / 1e-1,
+// 10 / 0.3, 5 / 1e-1 and 10 / 3e-2 took 483, 486, 497, 505 and 470 Newton iterations and times within
+// the machine's spread (docs/performance.md, "A model Hessian that knows when it is wrong").
+constexpr int kModelCurvatureIterations = 10;
+constexpr double kModelCurvatureTolerance = 0.1;
 
 void accumulate(NewtonReport& total, const NewtonReport& part) {
   total.iterations += part.iterations;
@@ -34,6 +41,7 @@ void accumulate(NewtonReport& total, const NewtonReport& part) {
   total.projection_fallbacks += part.projection_fallbacks;
   total.extended_steps += part.extended_steps;
   total.exact_curvature_iterations += part.exact_curvature_iterations;
+  total.curvature_probes += part.curvature_probes;
   total.assemble_seconds += part.assemble_seconds;
   total.analyse_seconds += part.analyse_seconds;
   total.factorize_seconds += part.factorize_seconds;
@@ -174,7 +182,15 @@ FrameRecord LevelStepper::step(int frame, Eigen::VectorXd& x, Eigen::VectorXd& v
   ns.projection = settings_.projection;
   // Only where the assembled Hessian is the potential's own: a coarse level's prolonged blocks are
   // lagged, and refining the clamped step on them cost spin-sphere's preview 17% more iterations.
-  if (!sys_.prolongation) ns.exact_curvature_iterations = kExactCurvatureIterations;
+  // Elsewhere the assembled Hessian is a model (prolonged blocks), checked against the true curvature
+  // where a step fails: spin-sphere's lagged Gauss-Newton blocks underestimated it 2-10x along the
+  // steps the line search cut.
+  if (!sys_.prolongation) {
+    ns.exact_curvature_iterations = kExactCurvatureIterations;
+  } else {
+    ns.model_curvature_iterations = kModelCurvatureIterations;
+    ns.model_curvature_tolerance = kModelCurvatureTolerance;
+  }
   const bool barrier = sys_.contact.has_barrier();
   if (barrier || sys_.prolongation)
     ns.after_iteration = [this, barrier](const Eigen::VectorXd& xi) {

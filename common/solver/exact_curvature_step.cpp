@@ -1,5 +1,7 @@
 #include "solver/exact_curvature_step.h"
 
+#include <limits>
+
 #include <Eigen/SparseCore>
 
 namespace pd {
@@ -7,17 +9,29 @@ namespace pd {
 ExactCurvatureStep exact_curvature_step(const CholmodSolver::SparseMatrix& exact_lower, const CholmodSolver& clamped,
                                         const Eigen::VectorXd& g, const Eigen::VectorXd& clamped_step,
                                         int max_iterations, double tolerance) {
+  // A serial product in a fixed order: the same bits for any thread count.
+  const HessianProduct product = [&exact_lower](const Eigen::VectorXd& d, Eigen::VectorXd& out) {
+    out = exact_lower.selfadjointView<Eigen::Lower>() * d;
+    return true;
+  };
+  return exact_curvature_step(product, clamped, g, clamped_step, max_iterations, tolerance);
+}
+
+ExactCurvatureStep exact_curvature_step(const HessianProduct& exact, const CholmodSolver& clamped,
+                                        const Eigen::VectorXd& g, const Eigen::VectorXd& clamped_step,
+                                        int max_iterations, double tolerance) {
   ExactCurvatureStep out;
   Eigen::VectorXd p = Eigen::VectorXd::Zero(g.size());
   Eigen::VectorXd r = -g;              // residual of H p = -g
   Eigen::VectorXd z = clamped_step;    // C^{-1} r
   Eigen::VectorXd d = z;               // search direction
-  double rz = r.dot(z);
+  Eigen::VectorXd Hd;
+  double rz = r.dot(z);                // d^T C d for the first direction
   const double stop = tolerance * tolerance * rz;
   for (int k = 0; k < max_iterations; ++k) {
-    // A serial product in a fixed order: the same bits for any thread count.
-    const Eigen::VectorXd Hd = exact_lower.selfadjointView<Eigen::Lower>() * d;
-    const double curvature = d.dot(Hd);
+    const bool formed = exact(d, Hd);
+    const double curvature = formed ? d.dot(Hd) : std::numeric_limits<double>::quiet_NaN();
+    if (k == 0) out.first_curvature_ratio = curvature / rz;
     if (!(curvature > 0.0)) {
       out.negative_curvature = true;
       break;

@@ -1,6 +1,8 @@
 #include "solver/incremental_potential.h"
 
 #include <algorithm>
+#include <cmath>
+#include <stdexcept>
 
 namespace pd {
 
@@ -20,6 +22,24 @@ Eigen::VectorXd IncrementalPotential::gradient(const Eigen::VectorXd& x) const {
   for (size_t i = 0; i < fixed_.size(); ++i)
     if (fixed_[i]) g[static_cast<Eigen::Index>(i)] = 0.0;
   return g;
+}
+
+bool IncrementalPotential::hessian_product(const Eigen::VectorXd& x, const Eigen::VectorXd& g,
+                                           const Eigen::VectorXd& v, Eigen::VectorXd& out) const {
+  const double largest = v.lpNorm<Eigen::Infinity>();
+  if (!(largest > 0.0) || !std::isfinite(largest)) return false;
+  const double e = kHessianProductStep / largest;
+  const Eigen::VectorXd near = x + e * v;
+  out = Eigen::VectorXd::Zero(x.size());
+  try {
+    for (const auto& t : terms_) t->add_gradient_near(x, near, out);
+  } catch (const std::domain_error&) {
+    return false;  // no prolonged shape at `near` (DegenerateProlongationTriangle)
+  }
+  for (size_t i = 0; i < fixed_.size(); ++i)
+    if (fixed_[i]) out[static_cast<Eigen::Index>(i)] = 0.0;
+  out = (out - g) / e;
+  return out.allFinite();
 }
 
 void IncrementalPotential::hessian(const Eigen::VectorXd& x, HessianProjection projection,

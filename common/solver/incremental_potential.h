@@ -12,6 +12,12 @@
 
 namespace pd {
 
+// hessian_product's difference step: the largest coordinate change, m. Far below every length a
+// scene resolves (contact distances are 1e-4 m and up, Newton's step tolerance about 1e-5 m) and far
+// above the gradient's round-off: at 1 m from the origin an inertia gradient m (x - x~) / h^2 is exact
+// to about 1e-16 relative, so the difference keeps about 9 digits.
+constexpr double kHessianProductStep = 1e-7;
+
 class IncrementalPotential {
  public:
   void add_term(std::unique_ptr<EnergyTerm> term) { terms_.push_back(std::move(term)); }
@@ -25,6 +31,14 @@ class IncrementalPotential {
   double value(const Eigen::VectorXd& x) const;
   // Gradient with the entries of fixed dofs set to zero.
   Eigen::VectorXd gradient(const Eigen::VectorXd& x) const;
+  // The product of the potential's Hessian at x with v (stacked, fixed dofs' entries zero), by a
+  // forward difference of gradients: out = (gradient(x + e v) - g) / e with g = gradient(x) and
+  // e ||v||_inf = kHessianProductStep (each term's add_gradient_near, reference x). For a level whose
+  // assembled Hessian is only a model of the potential's (solver/newton.h). Returns false, out
+  // unspecified, when x + e v has no finite gradient (a prolonged coarse triangle collapses) or v is
+  // zero.
+  bool hessian_product(const Eigen::VectorXd& x, const Eigen::VectorXd& g, const Eigen::VectorXd& v,
+                       Eigen::VectorXd& out) const;
   // Assembles every term's (projected) Hessian; fixed dofs get identity rows and columns.
   void hessian(const Eigen::VectorXd& x, HessianProjection projection, HessianAssembly& out) const;
   // min over terms of their admissible step fraction.

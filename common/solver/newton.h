@@ -42,6 +42,17 @@ struct NewtonSettings {
   // relative tolerance is on the preconditioned residual's norm.
   int exact_curvature_iterations = 0;
   double exact_curvature_tolerance = 1e-3;
+  // Where the assembled Hessian is only a model of the potential's (a coarse level: the prolonged
+  // elasticity's blocks are the coarse stand-in's or lagged Gauss-Newton ones): an iterate whose step
+  // fails its first line-search trial probes the true curvature along it, by conjugate gradients on
+  // products with the potential's Hessian (IncrementalPotential::hessian_product, differences of
+  // gradients) preconditioned by the model's factorization, up to this many iterations. When the
+  // true curvature along the model step is off the model's by more than 1.5x either way, the
+  // refined step replaces it and every later iterate of the solve is refined the same way before its
+  // line search; otherwise the step is cut as usual (the cause was nonlinearity farther along it).
+  // 0: off. The tolerance is on the preconditioned residual's norm, relative.
+  int model_curvature_iterations = 0;
+  double model_curvature_tolerance = 0.1;
   // Called with every accepted iterate; it may change the potential's parameters (IPC's adaptive
   // barrier stiffness) and returns true when it did, so that the potential is evaluated afresh
   // only then (a full evaluation per iteration would be wasted while nothing changes).
@@ -58,9 +69,11 @@ struct NewtonReport {
   // ExactFirst only: full steps extended (2x-8x) because the clamped steps before them kept growing,
   // the sign of Newton leaving a saddle (newton.cpp)
   int extended_steps = 0;
-  // Conjugate-gradient iterations that refined clamped steps on the exact Hessian
-  // (exact_curvature_iterations)
+  // Conjugate-gradient iterations that refined steps on the exact Hessian: clamped steps
+  // (exact_curvature_iterations) and model steps (model_curvature_iterations)
   int exact_curvature_iterations = 0;
+  // Model Hessians: steps whose failed first trial had the true curvature probed
+  int curvature_probes = 0;
   bool converged = false;
   // "converged" | "max_iterations" | "no_descent" | "factorization_failed", or "pins_blocked" (set
   // by the level stepper when scripted pins could not reach their targets)

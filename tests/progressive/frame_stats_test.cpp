@@ -31,6 +31,7 @@ FrameRecord busy_frame() {
   r.newton.projection_fallbacks = 4;
   r.newton.extended_steps = 5;
   r.newton.exact_curvature_iterations = 9;
+  r.newton.curvature_probes = 6;
   r.newton.converged = false;
   r.newton.assemble_seconds = 0.125;
   r.newton.analyse_seconds = 0.0625;
@@ -44,7 +45,8 @@ FrameRecord busy_frame() {
 std::map<std::string, double> busy_frame_stats() {
   return {
       {"newton_iterations", 11}, {"line_search_cuts", 3}, {"exact_hessians", 7},
-      {"projection_fallbacks", 4}, {"extended_steps", 5}, {"exact_curvature_iterations", 9}, {"newton_converged", 0},
+      {"projection_fallbacks", 4}, {"extended_steps", 5}, {"exact_curvature_iterations", 9}, {"curvature_probes", 6},
+      {"newton_converged", 0},
       {"solve_seconds", 0.5}, {"assemble_seconds", 0.125},
       {"factorize_seconds", 0.0625 + 0.25},  // symbolic analysis and numeric factorization together
       {"kinetic_energy", 1.5}, {"energy_membrane", 2.5}, {"energy_bending", 0.75},

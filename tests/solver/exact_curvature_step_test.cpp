@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <vector>
 
 #include <Eigen/SparseCore>
@@ -112,6 +113,44 @@ TEST(ExactCurvatureStep, StopsAfterMaxIterations) {
   // One iteration is the clamped step scaled to the model's minimum along it.
   const double scale = -s.g.dot(clamped_step) / full_quadratic(s.exact, clamped_step);
   EXPECT_LT((one.step - scale * clamped_step).norm(), 1e-12 * clamped_step.norm());
+}
+
+// The operator form is the matrix form's iteration: the same steps bit for bit, and the first
+// direction's curvature ratio d^T H d / d^T C d (with d the clamped step, d^T C d = -g^T d).
+TEST(ExactCurvatureStep, TheProductFormTakesTheMatrixFormsStepsBitForBitAndReportsTheFirstCurvatureRatio) {
+  const System s = soft_system(2.1);
+  CholmodSolver clamped;
+  ASSERT_TRUE(clamped.factorize(s.clamped, true, false));
+  const Eigen::VectorXd clamped_step = -clamped.solve(s.g);
+  int products = 0;
+  const HessianProduct product = [&](const Eigen::VectorXd& d, Eigen::VectorXd& out) {
+    ++products;
+    out = s.exact.selfadjointView<Eigen::Lower>() * d;
+    return true;
+  };
+  const ExactCurvatureStep a = exact_curvature_step(s.exact, clamped, s.g, clamped_step, 50, 1e-10);
+  const ExactCurvatureStep b = exact_curvature_step(product, clamped, s.g, clamped_step, 50, 1e-10);
+  EXPECT_TRUE(a.step == b.step);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ(products, b.iterations);
+  const double expected = full_quadratic(s.exact, clamped_step) / full_quadratic(s.clamped, clamped_step);
+  EXPECT_NEAR(b.first_curvature_ratio, expected, 1e-12 * expected);
+  EXPECT_GT(std::abs(expected - 1.0), 0.01) << "C's curvature along its own step differs from H's here";
+}
+
+// A product that cannot be formed (the potential has no gradient near the state) ends the iteration
+// as non-positive curvature does, with the clamped step kept and no ratio.
+TEST(ExactCurvatureStep, AFailedProductKeepsTheClampedStepAndReportsNoRatio) {
+  const System s = soft_system(2.1);
+  CholmodSolver clamped;
+  ASSERT_TRUE(clamped.factorize(s.clamped, true, false));
+  const Eigen::VectorXd clamped_step = -clamped.solve(s.g);
+  const HessianProduct failing = [](const Eigen::VectorXd&, Eigen::VectorXd&) { return false; };
+  const ExactCurvatureStep r = exact_curvature_step(failing, clamped, s.g, clamped_step, 50, 1e-10);
+  EXPECT_EQ(r.iterations, 0);
+  EXPECT_TRUE(r.negative_curvature);
+  EXPECT_TRUE(r.step == clamped_step);
+  EXPECT_TRUE(std::isnan(r.first_curvature_ratio));
 }
 
 }  // namespace

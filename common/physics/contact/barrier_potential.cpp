@@ -213,7 +213,14 @@ CandidatePairs BarrierPotential::pairs_within_offset(const Eigen::VectorXd& x) c
 
 const std::vector<BarrierPotential::ActivePair>& BarrierPotential::active_pairs(const Eigen::VectorXd& x) const {
   if (active_key_.matches(x)) return cached_active_;
-  const CandidatePairs& pairs = candidates(x);
+  active_key_.clear();  // until refilled: an exception below must not leave a half-built cache
+  collect_active_pairs(x, candidates(x), cached_active_);
+  active_key_.set(x);
+  return cached_active_;
+}
+
+void BarrierPotential::collect_active_pairs(const Eigen::VectorXd& x, const CandidatePairs& pairs,
+                                            std::vector<ActivePair>& out) const {
   const double active_d2 = barrier_active_squared_distance(settings_.dhat, settings_.offset);
   const double thin_active_d2 = barrier_active_squared_distance(settings_.dhat + settings_.offset, 0.0);
   const bool any_thin = !thin_.point_triangle.empty() || !thin_.edge_edge.empty();
@@ -252,15 +259,12 @@ const std::vector<BarrierPotential::ActivePair>& BarrierPotential::active_pairs(
   std::vector<int> index;
   for (int i = 0; i < num_candidates; ++i)
     if (active[static_cast<size_t>(i)]) index.push_back(i);
-  active_key_.clear();  // until refilled: an exception below must not leave a half-built cache
-  cached_active_.resize(index.size());
+  out.resize(index.size());
   parallel_for_index(static_cast<int>(index.size()), [&](int j) {
-    ActivePair& p = cached_active_[static_cast<size_t>(j)];
+    ActivePair& p = out[static_cast<size_t>(j)];
     make_pair(index[static_cast<size_t>(j)], p);
     p.d2 = d2[static_cast<size_t>(index[static_cast<size_t>(j)])];
   });
-  active_key_.set(x);
-  return cached_active_;
 }
 
 template <class F>
@@ -307,8 +311,11 @@ double BarrierPotential::value(const Eigen::VectorXd& x) const {
 }
 
 Eigen::VectorXd BarrierPotential::unit_stiffness_gradient(const Eigen::VectorXd& x) const {
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(x.size());
-  const std::vector<ActivePair>& pairs = active_pairs(x);
+  return unit_stiffness_gradient(active_pairs(x), x.size());
+}
+
+Eigen::VectorXd BarrierPotential::unit_stiffness_gradient(const std::vector<ActivePair>& pairs, Eigen::Index n) const {
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
   add_element_gradients<4>(
       static_cast<int>(pairs.size()), [&](int i) { return pairs[static_cast<size_t>(i)].v; },
       [&](int i) { return pair_gradient(pairs[static_cast<size_t>(i)]); }, g);
@@ -318,6 +325,19 @@ Eigen::VectorXd BarrierPotential::unit_stiffness_gradient(const Eigen::VectorXd&
 void BarrierPotential::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
   if (settings_.kappa == 0.0) return;
   grad += settings_.kappa * unit_stiffness_gradient(x);
+}
+
+// Pairs that are not candidates at `reference` are farther apart there than the candidate radius
+// dhat + offset, the barrier's support; within kHessianProductStep of it they can come inside only
+// by a sliver where the barrier and its first two derivatives vanish (b(d) ~ (d - dhat)^2 near
+// dhat), so dropping them changes the gradient by far less than a difference of gradients resolves.
+// The active set itself is computed at x, and not cached: x is a neighbour, not an iterate.
+void BarrierPotential::add_gradient_near(const Eigen::VectorXd& reference, const Eigen::VectorXd& x,
+                                         Eigen::VectorXd& grad) const {
+  if (settings_.kappa == 0.0) return;
+  std::vector<ActivePair> pairs;
+  collect_active_pairs(x, candidates(reference), pairs);
+  grad += settings_.kappa * unit_stiffness_gradient(pairs, x.size());
 }
 
 void BarrierPotential::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,

@@ -42,6 +42,10 @@ class BarrierPotential : public EnergyTerm, public FrictionSource {
   std::string name() const override { return "contact"; }
   double value(const Eigen::VectorXd& x) const override;
   void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const override;
+  // The gradient at x over the broad-phase pairs of `reference` (the .cpp says why that is exact
+  // enough for a difference of gradients): no broad phase at x.
+  void add_gradient_near(const Eigen::VectorXd& reference, const Eigen::VectorXd& x,
+                         Eigen::VectorXd& grad) const override;
   void add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                    HessianAssembly& hessian) const override;
   // Largest alpha in [0, 1] such that no candidate pair reaches the offset distance on x -> x + alpha dx.
@@ -106,6 +110,9 @@ class BarrierPotential : public EnergyTerm, public FrictionSource {
   // is bit-for-bit unchanged, as the candidates are: the reference is valid until the next call
   // with another x (or set_thin_pairs).
   const std::vector<ActivePair>& active_pairs(const Eigen::VectorXd& x) const;
+  // The active pairs at x among `pairs` (candidates found at x or, for add_gradient_near, nearby).
+  void collect_active_pairs(const Eigen::VectorXd& x, const CandidatePairs& pairs, std::vector<ActivePair>& out) const;
+  Eigen::VectorXd unit_stiffness_gradient(const std::vector<ActivePair>& pairs, Eigen::Index n) const;
   // Calls f(kind, stencil, x12, d2, eps_x, offset) for every active pair, in active_pairs' order.
   template <class F>
   void for_each_active_pair(const Eigen::VectorXd& x, F&& f) const;

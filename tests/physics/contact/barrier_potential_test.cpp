@@ -106,6 +106,25 @@ TEST(BarrierPotential, ActivePairsAreReusedOnlyWhileXAndTheThinPairsAreUnchanged
               test::term_hessian(fresh_thin, s.x, HessianProjection::Clamp));
 }
 
+// A finite-difference neighbour's gradient over the reference's broad-phase pairs equals the gradient
+// computed from scratch, bit for bit, when no pair is near the candidate radius (here: the squares'
+// pairs sit well inside or outside dhat + offset), and the active set of the reference is untouched.
+TEST(BarrierPotential, GradientNearAReferenceUsesItsPairsAndEqualsTheGradientFromScratch) {
+  TwoSquares s;
+  const ContactSettings cs = contact_settings(0.2, 0.01, 10.0);
+  const BarrierPotential term(s.prims, s.rest, cs), fresh(s.prims, s.rest, cs);
+  Eigen::VectorXd v = Eigen::VectorXd::LinSpaced(s.x.size(), -1.0, 1.0);
+  const Eigen::VectorXd near = s.x + 1e-7 * v;
+  const Eigen::VectorXd g_ref = test::term_gradient(term, s.x);
+  Eigen::VectorXd g_near = Eigen::VectorXd::Zero(s.x.size());
+  term.add_gradient_near(s.x, near, g_near);
+  const Eigen::VectorXd expected = test::term_gradient(fresh, near);
+  ASSERT_GT(expected.norm(), 0.0);
+  EXPECT_TRUE(g_near == expected);
+  EXPECT_FALSE(g_near == g_ref) << "the neighbour's gradient is not the reference's";
+  EXPECT_TRUE(test::term_gradient(term, s.x) == g_ref) << "the reference's cached pairs are unchanged";
+}
+
 // Thin pairs (set_thin_pairs) contact at distance 0 instead of the offset. The squares' closest
 // pairs are ~0.1 m apart, so an offset of 0.1 m puts some of them inside it and leaves others out.
 TEST(BarrierPotential, ThinPairsContactAtDistanceZeroAndEveryOtherPairAtTheOffset) {
