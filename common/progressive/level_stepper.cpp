@@ -28,9 +28,10 @@ constexpr double kFrictionToleranceFraction = 0.1;
 constexpr int kExactCurvatureIterations = 30;
 // A coarse level's model Hessian: conjugate-gradient iterations on the true curvature for a step the
 // model got wrong (solver/newton.h), down to 1e-1 of the preconditioned residual. Each costs a
-// gradient, so the tolerance is loose. spin-sphere's preview, 30 frames: 10 / 1e-1, 20 / 1e-1,
-// 10 / 0.3, 5 / 1e-1 and 10 / 3e-2 took 483, 486, 497, 505 and 470 Newton iterations and times within
-// the machine's spread (docs/performance.md, "A model Hessian that knows when it is wrong").
+// gradient, so the tolerance is loose. spin-sphere's preview, 30 frames, probing every cut: 10 / 1e-1,
+// 20 / 1e-1, 10 / 0.3, 5 / 1e-1 and 10 / 3e-2 took 483, 486, 497, 505 and 470 Newton iterations and
+// times within the machine's spread (docs/performance.md, "A model Hessian that knows when it is
+// wrong").
 constexpr int kModelCurvatureIterations = 10;
 constexpr double kModelCurvatureTolerance = 0.1;
 

@@ -49,8 +49,9 @@ struct NewtonSettings {
   // gradients) preconditioned by the model's factorization, up to this many iterations. When the
   // true curvature along the model step is off the model's by more than 1.5x either way, the
   // refined step replaces it and every later iterate of the solve is refined the same way before its
-  // line search; otherwise the step is cut as usual (the cause was nonlinearity farther along it).
-  // 0: off. The tolerance is on the preconditioned residual's norm, relative.
+  // line search; otherwise the step is cut as usual (the cause was nonlinearity farther along it) and
+  // the solve probes no more. 0: off. The tolerance is on the preconditioned residual's norm,
+  // relative.
   int model_curvature_iterations = 0;
   double model_curvature_tolerance = 0.1;
   // Called with every accepted iterate; it may change the potential's parameters (IPC's adaptive

@@ -309,7 +309,8 @@ TEST(Newton, AModelHessianThatUnderestimatesTheCurvatureIsProbedAndItsStepsRefin
 
 // An exact Hessian whose full steps still fail (the pseudo-Huber overshoot): the probe measures the
 // true curvature along the step equal to the model's, blames the nonlinearity and leaves the step to
-// the line search, so every iterate is the one an unprobed Newton takes, bit for bit.
+// the line search, so every iterate is the one an unprobed Newton takes, bit for bit; and the solve
+// probes no more, although later steps are cut too.
 TEST(Newton, AStepCutForNonlinearityFartherAlongIsNotBlamedOnAnExactModel) {
   IncrementalPotential ip;
   ip.add_term(std::make_unique<PseudoHuberTerm>());
@@ -318,8 +319,16 @@ TEST(Newton, AStepCutForNonlinearityFartherAlongIsNotBlamedOnAnExactModel) {
   const PlainAndProbing run(ip, start, settings(1e-10), 0.1);
   const NewtonReport &ra = run.plain, &rb = run.probing;
   const Eigen::VectorXd &a = run.a, &b = run.b;
-  EXPECT_GE(ra.line_search_cuts, 2) << "the full steps from |x| > 1 overshoot";
-  EXPECT_GE(rb.curvature_probes, 1);
+  // The first iteration alone, to show that later iterations are cut too.
+  NewtonSettings one = settings(1e-10);
+  one.max_iterations = 1;
+  Eigen::VectorXd first = start;
+  HessianAssembly H;
+  CholmodSolver solver;
+  const NewtonReport r1 = newton_minimize(ip, first, one, H, solver);
+  EXPECT_GE(r1.line_search_cuts, 1) << "the full step from |x| > 1 overshoots";
+  EXPECT_GT(ra.line_search_cuts, r1.line_search_cuts) << "later steps are cut too";
+  EXPECT_EQ(rb.curvature_probes, 1) << "one probe that finds the model right ends the probing";
   EXPECT_EQ(rb.iterations, ra.iterations);
   EXPECT_EQ(rb.line_search_cuts, ra.line_search_cuts);
   EXPECT_TRUE(a == b) << "the probes changed no step";
