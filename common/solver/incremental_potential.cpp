@@ -29,7 +29,10 @@ bool IncrementalPotential::hessian_product(const Eigen::VectorXd& x, const Eigen
   const double largest = v.lpNorm<Eigen::Infinity>();
   if (!(largest > 0.0) || !std::isfinite(largest)) return false;
   const double e = kHessianProductStep / largest;
-  const Eigen::VectorXd near = x + e * v;
+  // Fixed dofs are not unknowns: they stay where they are (a direction of the solver is zero there).
+  Eigen::VectorXd near = x + e * v;
+  for (size_t i = 0; i < fixed_.size(); ++i)
+    if (fixed_[i]) near[static_cast<Eigen::Index>(i)] = x[static_cast<Eigen::Index>(i)];
   out = Eigen::VectorXd::Zero(x.size());
   try {
     for (const auto& t : terms_) t->add_gradient_near(x, near, out);

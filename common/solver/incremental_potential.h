@@ -31,7 +31,8 @@ class IncrementalPotential {
   double value(const Eigen::VectorXd& x) const;
   // Gradient with the entries of fixed dofs set to zero.
   Eigen::VectorXd gradient(const Eigen::VectorXd& x) const;
-  // The product of the potential's Hessian at x with v (stacked, fixed dofs' entries zero), by a
+  // The product of the potential's Hessian at x with v (stacked; fixed dofs are held, and their entries
+  // of the product are zero), by a
   // forward difference of gradients: out = (gradient(x + e v) - g) / e with g = gradient(x) and
   // e ||v||_inf = kHessianProductStep (each term's add_gradient_near, reference x). For a level whose
   // assembled Hessian is only a model of the potential's (solver/newton.h). Returns false, out

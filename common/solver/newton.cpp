@@ -79,8 +79,8 @@ ExactCurvatureStep refine_on_true_curvature(const IncrementalPotential& ip, cons
   return refined;
 }
 
-// The stopping test on the step p (its measure is recorded): ||p||_inf / h, and with friction the
-// contacts' tangential step, below their tolerances.
+// The stopping test on the step p: its measure ||p||_inf / h below the step tolerance and, with
+// friction, the contacts' tangential step below theirs (recorded in r).
 bool step_converged(const Eigen::VectorXd& p, double measure, const NewtonSettings& s, NewtonReport& r) {
   if (!(measure < s.step_tolerance)) return false;
   if (!s.tangential_step) return true;
