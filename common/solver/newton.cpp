@@ -89,35 +89,76 @@ bool step_converged(const Eigen::VectorXd& p, double measure, const NewtonSettin
   return tangential < s.tangential_tolerance;
 }
 
+// Assembles the Hessian at x with element projection `p` and factorizes it (a diagonal shift where
+// indefinite only if `shift`); times go into the report. `assembled` points to the matrix (lower
+// triangle, held by `hessian` until its next assembly).
+bool assemble_and_factorize(const IncrementalPotential& ip, const Eigen::VectorXd& x, HessianProjection p, bool shift,
+                            HessianAssembly& hessian, CholmodSolver& solver, NewtonReport& r,
+                            const CholmodSolver::SparseMatrix** assembled = nullptr) {
+  const auto t0 = Clock::now();
+  ip.hessian(x, p, hessian);
+  bool pattern_changed = false;
+  const auto& H = hessian.finish(&pattern_changed);
+  if (assembled) *assembled = &H;
+  r.assemble_seconds += since(t0);
+  const bool ok = solver.factorize(H, pattern_changed, shift);
+  r.analyse_seconds += solver.analyse_seconds();
+  r.factorize_seconds += solver.factorize_seconds();
+  return ok;
+}
+
+// What an iterate's Hessian turned out to be.
+struct IterateHessian {
+  bool factorized = false;
+  bool clamped = false;     // ExactFirst only: the clamped one is factorized
+  bool have_exact = false;  // `exact` holds this iterate's exact Hessian, which was indefinite
+};
+
+// The iterate's Hessian at x, assembled and factorized by the projection policy. ExactFirst: the
+// exact Hessian first (when `try_exact`), unshifted, reassembled clamped only if CHOLMOD finds it
+// indefinite (keeping the clamp for the rest of the step after one failure measured 1.3x more
+// finest-level iterations on drape-gear); with `keep_exact` the indefinite exact matrix is copied into
+// `exact` for the step's refinement (the clamped reassembly overwrites `hessian`).
+IterateHessian assemble_iterate_hessian(const IncrementalPotential& ip, const Eigen::VectorXd& x,
+                                        const NewtonSettings& s, bool try_exact, bool keep_exact,
+                                        HessianAssembly& hessian, CholmodSolver& solver,
+                                        CholmodSolver::SparseMatrix& exact, NewtonReport& r) {
+  IterateHessian out;
+  if (s.projection != HessianProjection::ExactFirst) {
+    out.factorized = assemble_and_factorize(ip, x, s.projection, true, hessian, solver, r);
+    return out;
+  }
+  const CholmodSolver::SparseMatrix* assembled = nullptr;
+  if (try_exact && assemble_and_factorize(ip, x, HessianProjection::None, false, hessian, solver, r, &assembled)) {
+    out.factorized = true;
+    ++r.exact_hessians;
+    return out;
+  }
+  if (try_exact) {
+    ++r.projection_fallbacks;
+    if (keep_exact) {
+      exact = *assembled;
+      out.have_exact = true;
+    }
+  }
+  out.clamped = true;
+  out.factorized = assemble_and_factorize(ip, x, HessianProjection::Clamp, true, hessian, solver, r);
+  return out;
+}
+
 }  // namespace
 
 NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
                              const NewtonSettings& s, HessianAssembly& hessian, CholmodSolver& solver) {
   NewtonReport r;
   double energy = ip.value(x);
-  const CholmodSolver::SparseMatrix* assembled = nullptr;  // the last assembled Hessian (in `hessian`)
-  // Assembles the Hessian at x with element projection `p` and factorizes it (a diagonal shift
-  // where indefinite only if `shift`); times go into the report.
-  const auto assemble_and_factorize = [&](HessianProjection p, bool shift) {
-    const auto t0 = Clock::now();
-    ip.hessian(x, p, hessian);
-    bool pattern_changed = false;
-    const auto& H = hessian.finish(&pattern_changed);
-    assembled = &H;
-    r.assemble_seconds += since(t0);
-    const bool ok = solver.factorize(H, pattern_changed, shift);
-    r.analyse_seconds += solver.analyse_seconds();
-    r.factorize_seconds += solver.factorize_seconds();
-    return ok;
-  };
-  // ExactFirst: an iterate tries the exact Hessian first, unshifted, and is reassembled clamped only
-  // if that fails (keeping the clamp for the rest of the step after one failure measured 1.3x more
-  // finest-level iterations on drape-gear). After a capped step (max_step < 1: CCD, the strain
-  // limit or the ground kept the step short of the full Newton step) the next iterate is clamped
-  // without trying: far from the minimiser the exact Hessian, even when positive definite, can
-  // point into contact, and Newton then crawls at capped steps (self-fold: one step ran out of its
-  // 200 iterations). Steps shortened by the line search alone do not count: the flag has many, and
-  // clamping after them cost 1.75x the time (docs/performance.md, "Which Hessian projection").
+  // ExactFirst (assemble_iterate_hessian): whether the next iterate tries the exact Hessian. After a
+  // capped step (max_step < 1: CCD, the strain limit or the ground kept the step short of the full
+  // Newton step) it is clamped without trying: far from the minimiser the exact Hessian, even when
+  // positive definite, can point into contact, and Newton then crawls at capped steps (self-fold: one
+  // step ran out of its 200 iterations). Steps shortened by the line search alone do not count: the
+  // flag has many, and clamping after them cost 1.75x the time (docs/performance.md, "Which Hessian
+  // projection").
   const bool exact_first = s.projection == HessianProjection::ExactFirst;
   bool try_exact = exact_first;
   // A clamped iterate of ExactFirst sits where the exact Hessian is indefinite. When the full,
@@ -144,26 +185,9 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     r.assemble_seconds += since(t0);
     r.gradient_norms.push_back(g.norm());
 
-    bool factorized;
-    bool clamped = false;  // ExactFirst only: this iterate's Hessian is the clamped one
-    bool have_exact = false;  // `exact` holds this iterate's exact Hessian
-    if (!exact_first) {
-      factorized = assemble_and_factorize(s.projection, true);
-    } else if (try_exact && assemble_and_factorize(HessianProjection::None, false)) {
-      factorized = true;
-      ++r.exact_hessians;
-    } else {
-      if (try_exact) {
-        ++r.projection_fallbacks;
-        if (refine_clamped) {
-          exact = *assembled;
-          have_exact = true;
-        }
-      }
-      clamped = true;
-      factorized = assemble_and_factorize(HessianProjection::Clamp, true);
-    }
-    if (!factorized) {
+    const IterateHessian h = assemble_iterate_hessian(ip, x, s, try_exact, refine_clamped, hessian, solver, exact, r);
+    const bool clamped = h.clamped, have_exact = h.have_exact;
+    if (!h.factorized) {
       r.stop_reason = "factorization_failed";
       return r;
     }
