@@ -38,6 +38,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace pd {
 namespace {
@@ -200,6 +201,17 @@ class CellTable {
     const std::size_t b = bucket(x, y, z);
     for (std::uint32_t e = start_[b]; e < start_[b + 1]; ++e) visit(ids_[e]);
   }
+  // The same without the primitives whose ids lie in [skip.first, skip.second): a bucket lists its
+  // ids in increasing order, so they are one run, stepped over by a binary search.
+  template <class Visit>
+  void visit_bucket(int x, int y, int z, std::pair<int, int> skip, Visit&& visit) const {
+    if (skip.first == skip.second) return visit_bucket(x, y, z, visit);  // nothing to skip
+    const std::size_t b = bucket(x, y, z);
+    const int* e = ids_.data() + start_[b];
+    const int* end = ids_.data() + start_[b + 1];
+    for (; e != end && *e < skip.first; ++e) visit(*e);
+    for (e = std::lower_bound(e, end, skip.second); e != end; ++e) visit(*e);
+  }
 
  private:
   // Cells next to each other along x land in consecutive buckets: primitives are usually numbered
@@ -216,11 +228,46 @@ class CellTable {
   std::vector<int> ids_;
 };
 
+// The objects of a query's primitives and of its targets, and which objects self-collide: pairs
+// within an object whose self-contact is off are never candidates, so a query primitive of such an
+// object steps over its own object's targets instead of testing and rejecting them one by one (an
+// obstacle's primitives next to each other: half of spin-sphere's broad phase). That needs each
+// object's targets to be one run of ids (as the scene stacks them); otherwise nothing is skipped.
+struct PairObjects {
+  const std::vector<int>& query;
+  const std::vector<int>& target;
+  const std::vector<char>& self;
+};
+
+// Per object, the run [first, second) of target ids it owns when every object's targets are
+// contiguous and its self-contact is off; {0, 0} (an empty run) otherwise.
+std::vector<std::pair<int, int>> skipped_target_runs(const PairObjects& o) {
+  const int objects = static_cast<int>(o.self.size());
+  std::vector<std::pair<int, int>> run(static_cast<std::size_t>(objects), {-1, -1});
+  const int n = static_cast<int>(o.target.size());
+  for (int b = 0; b < n; ++b) {
+    auto& r = run[static_cast<std::size_t>(o.target[b])];
+    if (r.first < 0) {
+      r = {b, b + 1};
+    } else if (r.second == b) {
+      r.second = b + 1;
+    } else {
+      return std::vector<std::pair<int, int>>(static_cast<std::size_t>(objects), {0, 0});  // not one run
+    }
+  }
+  for (int k = 0; k < objects; ++k)
+    if (run[static_cast<std::size_t>(k)].first < 0 || o.self[static_cast<std::size_t>(k)]) run[static_cast<std::size_t>(k)] = {0, 0};
+  return run;
+}
+
 // Appends to `out`, sorted, every (a, b) with query box a overlapping target box b that accept(a, b)
-// keeps; with same_set (queries and targets are the same primitives) only pairs with a < b.
+// keeps; with same_set (queries and targets are the same primitives) only pairs with a < b. accept
+// must refuse pairs within an object whose self-contact is off (`objects`); they may be skipped
+// before it is asked.
 template <class Accept>
 void collect_pairs(const std::vector<Box>& qbox, const std::vector<Box>& tbox, bool same_set,
-                   double cell, Accept accept, std::vector<std::array<int, 2>>& out) {
+                   double cell, const PairObjects& objects, Accept accept, std::vector<std::array<int, 2>>& out) {
+  const std::vector<std::pair<int, int>> own_run = skipped_target_runs(objects);
   const Grid grid = make_grid(qbox, tbox, cell);
   const int nq = static_cast<int>(qbox.size()), nt = static_cast<int>(tbox.size());
   // Cell ranges, and whether a box is small enough for the table; targets share the queries' when
@@ -248,6 +295,8 @@ void collect_pairs(const std::vector<Box>& qbox, const std::vector<Box>& tbox, b
   std::vector<int> found;
   for (int a = 0; a < nq; ++a) {
     found.clear();
+    const std::pair<int, int> skip = own_run[static_cast<std::size_t>(objects.query[a])];
+    const auto skipped = [&skip](int b) { return b >= skip.first && b < skip.second; };
     auto consider = [&](int b) {
       if (overlap(qbox[a], tbox[b]) && accept(a, b)) found.push_back(b);
     };
@@ -257,7 +306,7 @@ void collect_pairs(const std::vector<Box>& qbox, const std::vector<Box>& tbox, b
       // cell is in both ranges, so b is in its bucket; any other b met is rejected here or by the
       // box test. Each bucket lists b once, so the pair is found once.
       for_each_cell(ra, [&](int x, int y, int z) {
-        table.visit_bucket(x, y, z, [&](int b) {
+        table.visit_bucket(x, y, z, skip, [&](int b) {
           if (same_set && b <= a) return;
           const CellRange& rb = trange[b];
           if (x != std::max(ra.lo[0], rb.lo[0]) || y != std::max(ra.lo[1], rb.lo[1]) ||
@@ -267,9 +316,10 @@ void collect_pairs(const std::vector<Box>& qbox, const std::vector<Box>& tbox, b
         });
       });
       for (int b : large_targets)
-        if (!same_set || b > a) consider(b);
+        if ((!same_set || b > a) && !skipped(b)) consider(b);
     } else {
-      for (int b = same_set ? a + 1 : 0; b < nt; ++b) consider(b);
+      for (int b = same_set ? a + 1 : 0; b < nt; ++b)
+        if (!skipped(b)) consider(b);
     }
     std::sort(found.begin(), found.end());
     for (int b : found) out.push_back({a, b});
@@ -342,11 +392,11 @@ CandidatePairs run(const ContactPrimitives& p, const Motion& x, double r) {
   for (std::size_t e = 0; e < p.edges.size(); ++e) edge_box[e] = box_of<2>(x, p.edges[e], r);
 
   CandidatePairs out;
-  collect_pairs(vertex_box, face_box, false, cell, [&](int v, int f) {
+  collect_pairs(vertex_box, face_box, false, cell, PairObjects{vertex_object, face_object, self}, [&](int v, int f) {
     if (v == p.faces(f, 0) || v == p.faces(f, 1) || v == p.faces(f, 2)) return false;
     return vertex_object[v] != face_object[f] || self[vertex_object[v]] != 0;
   }, out.point_triangle);
-  collect_pairs(edge_box, edge_box, true, cell, [&](int a, int b) {
+  collect_pairs(edge_box, edge_box, true, cell, PairObjects{edge_object, edge_object, self}, [&](int a, int b) {
     const auto& ea = p.edges[a];
     const auto& eb = p.edges[b];
     if (ea[0] == eb[0] || ea[0] == eb[1] || ea[1] == eb[0] || ea[1] == eb[1]) return false;
@@ -379,7 +429,8 @@ std::vector<std::array<int, 2>> find_edge_face_candidates(const ContactPrimitive
   for (int f = 0; f < m; ++f) face_box[f] = box_of<3>(x, {prims.faces(f, 0), prims.faces(f, 1), prims.faces(f, 2)}, r);
   for (std::size_t e = 0; e < prims.edges.size(); ++e) edge_box[e] = box_of<2>(x, prims.edges[e], r);
   std::vector<std::array<int, 2>> out;
-  collect_pairs(edge_box, face_box, false, cell, [&](int e, int f) {
+  collect_pairs(edge_box, face_box, false, cell, PairObjects{edge_object, face_object, prims.object_self_contact},
+                [&](int e, int f) {
     const auto& ev = prims.edges[e];
     for (int k = 0; k < 3; ++k)
       if (prims.faces(f, k) == ev[0] || prims.faces(f, k) == ev[1]) return false;

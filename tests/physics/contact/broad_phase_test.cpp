@@ -169,6 +169,28 @@ TEST(BroadPhase, MatchesBruteForceOnRandomSoups) {
   EXPECT_GT(total, 1000u);  // the comparison is not vacuous
 }
 
+// A query primitive of an object without self-contact steps over its own object's targets when they
+// are one run of ids (as scenes stack them); when they are not, nothing is skipped. Both give the
+// brute force's pairs: two soups without self-contact, once as added and once with a face and an
+// edge of each object swapped, so neither object's faces or edges are one run.
+TEST(BroadPhase, MatchesBruteForceWhetherOrNotAnObjectsPrimitivesAreOneRun) {
+  std::mt19937 rng(777);
+  std::size_t total = 0;
+  for (bool interleave : {false, true}) {
+    Scene s;
+    add_random_soup(s, rng, 40, false);
+    const Eigen::Index faces0 = s.prims.faces.rows();
+    const std::size_t edges0 = s.prims.edges.size();
+    add_random_soup(s, rng, 40, false);
+    if (interleave) {
+      s.prims.faces.row(0).swap(s.prims.faces.row(faces0));
+      std::swap(s.prims.edges[0], s.prims.edges[edges0]);
+    }
+    for (double r : {0.01, 0.05, 0.2}) total += expect_matches_brute_force(s, nullptr, r);
+  }
+  EXPECT_GT(total, 200u);  // the comparison is not vacuous
+}
+
 TEST(BroadPhase, MatchesBruteForceOnFoldedSheets) {
   Scene s;
   s.add(folded_sheet(0.004), true);
