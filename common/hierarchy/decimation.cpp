@@ -143,8 +143,16 @@ void relabel(std::vector<Tri>& tris, const std::vector<int>& map) {
     for (int& v : t) v = map[static_cast<std::size_t>(v)];
 }
 
+// The same for every id of a collapse record.
+void relabel(Collapse& c, const std::vector<int>& map) {
+  c.removed = map[static_cast<std::size_t>(c.removed)];
+  c.kept = map[static_cast<std::size_t>(c.kept)];
+  relabel(c.faces_before, map);
+  relabel(c.faces_after, map);
+}
+
 // Builds level l's data from the run's state after its collapses. `finer_map` maps finest ids to
-// level l+1 ids (-1 if not there); `collapses` is the run's records for this level, finest ids.
+// level l+1 ids (-1 if not there); `collapses` is the run's records for this level, level l+1 ids.
 Level assemble_level(const detail::CollapseSnapshot& state, const std::vector<int>& finer_to_finest,
                      const std::vector<int>& finer_map, std::vector<Collapse> collapses,
                      std::vector<int>& this_map) {
@@ -172,13 +180,6 @@ Level assemble_level(const detail::CollapseSnapshot& state, const std::vector<in
   for (std::size_t j = 0; j < finer_to_finest.size(); ++j)
     level.fine_to_coarse[j] = this_map[static_cast<std::size_t>(finer_to_finest[j])];
 
-  auto to_finer = [&finer_map](int id) { return finer_map[static_cast<std::size_t>(id)]; };
-  for (Collapse& c : collapses) {
-    c.removed = to_finer(c.removed);
-    c.kept = to_finer(c.kept);
-    relabel(c.faces_before, finer_map);
-    relabel(c.faces_after, finer_map);
-  }
   level.collapses = std::move(collapses);
   return level;
 }
@@ -251,13 +252,8 @@ void build_kept_levels(std::vector<Level>& levels, const std::vector<int>& targe
       if (state.alive[f] && !keep[f] && !fixed_anyway[f])
         throw InputError(name + ": the target of " + std::to_string(t) + " vertices leaves vertex " + std::to_string(f) +
                          ", which is neither kept nor fixed (the target must count the kept and fixed vertices)");
+    // The run started from level l+1's mesh: its records are in level l+1 ids already.
     std::vector<Collapse> records(run.collapses.begin(), run.collapses.begin() + state.num_collapses);
-    for (Collapse& c : records) {
-      c.removed = finer.to_finest[static_cast<std::size_t>(c.removed)];
-      c.kept = finer.to_finest[static_cast<std::size_t>(c.kept)];
-      relabel(c.faces_before, finer.to_finest);
-      relabel(c.faces_after, finer.to_finest);
-    }
     std::vector<int> this_map;
     levels[static_cast<std::size_t>(l)] = assemble_level(state, finer.to_finest, finer_map, std::move(records), this_map);
     finer_map = std::move(this_map);
@@ -383,6 +379,7 @@ std::vector<Level> build_levels(const TriMesh& finest, const LevelSettings& sett
     }
     std::vector<Collapse> records(run.collapses.begin() + first_record, run.collapses.begin() + state->num_collapses);
     first_record = state->num_collapses;
+    for (Collapse& c : records) relabel(c, finer_map);  // the run's ids are finest ids
     std::vector<int> this_map;
     const Level& finer = levels[static_cast<std::size_t>(l) + 1];
     levels[static_cast<std::size_t>(l)] = assemble_level(*state, finer.to_finest, finer_map, std::move(records), this_map);

@@ -22,6 +22,7 @@
 // model curvature along the model's own step tells whether the model is wrong where Newton is
 // (solver/newton.h, model_curvature_iterations).
 #include <functional>
+#include <limits>
 
 #include <Eigen/Core>
 
@@ -34,8 +35,9 @@ struct ExactCurvatureStep {
   int iterations = 0;     // conjugate-gradient iterations that changed the step
   bool negative_curvature = false;  // it stopped at a direction of non-positive curvature under H
   // d^T H d / d^T C d along the first direction d, the clamped (model) step: how far the model's
-  // curvature along its own step is from H's. NaN when the first product failed.
-  double first_curvature_ratio = 0.0;
+  // curvature along its own step is from H's. NaN when the first product failed or none was taken
+  // (max_iterations 0).
+  double first_curvature_ratio = std::numeric_limits<double>::quiet_NaN();
 };
 
 // out = H d for the stacked vector d; false when the product cannot be formed (H's gradient is not

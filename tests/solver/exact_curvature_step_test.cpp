@@ -108,6 +108,7 @@ TEST(ExactCurvatureStep, StopsAfterMaxIterations) {
   const ExactCurvatureStep none = exact_curvature_step(s.exact, clamped, s.g, clamped_step, 0, 1e-10);
   EXPECT_EQ(none.iterations, 0);
   EXPECT_TRUE(none.step == clamped_step);
+  EXPECT_TRUE(std::isnan(none.first_curvature_ratio)) << "no product, no ratio";
   const ExactCurvatureStep one = exact_curvature_step(s.exact, clamped, s.g, clamped_step, 1, 1e-10);
   EXPECT_EQ(one.iterations, 1);
   // One iteration is the clamped step scaled to the model's minimum along it.

@@ -123,6 +123,15 @@ TEST(BarrierPotential, GradientNearAReferenceUsesItsPairsAndEqualsTheGradientFro
   EXPECT_TRUE(g_near == expected);
   EXPECT_FALSE(g_near == g_ref) << "the neighbour's gradient is not the reference's";
   EXPECT_TRUE(test::term_gradient(term, s.x) == g_ref) << "the reference's cached pairs are unchanged";
+
+  // The pairs are the reference's, not the neighbour's: from a reference with the upper square lifted
+  // 1 m (no candidates at all), the gradient at s.x has no contact, although s.x has active pairs.
+  Eigen::VectorXd lifted = s.x;
+  for (int v = 9; v < 18; ++v) lifted[3 * v + 2] += 1.0;
+  Eigen::VectorXd g_from_lifted = Eigen::VectorXd::Zero(s.x.size());
+  term.add_gradient_near(lifted, s.x, g_from_lifted);
+  EXPECT_EQ(g_from_lifted.norm(), 0.0);
+  EXPECT_GT(g_ref.norm(), 0.0);
 }
 
 // Thin pairs (set_thin_pairs) contact at distance 0 instead of the offset. The squares' closest
