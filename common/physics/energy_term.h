@@ -54,6 +54,15 @@ class EnergyTerm {
   // Called once before the Newton iterations of each step.
   virtual void begin_step(const StepStart& /*step*/) {}
 
+  // A term whose Hessian is a cheap stand-in for a step's first assemblies and a costlier model
+  // after them (the coarse-first prolonged term): true when its next add_hessian would leave the
+  // stand-in. The solver may then probe the stand-in and keep it for the rest of the step
+  // (keep_stand_in_hessian(true)), or let it go at the next assembly (false, also after a keep).
+  // Both are const because they steer per-step bookkeeping, like the lagged counts, not the
+  // energy. Default: no stand-in phase.
+  virtual bool stand_in_hessian_ends() const { return false; }
+  virtual void keep_stand_in_hessian(bool /*keep*/) const {}
+
   // Largest alpha in (0, 1] such that x + alpha * dx stays admissible for this term (contact CCD,
   // strain limits, inverted volumes). Terms without such a constraint return 1.
   virtual double max_step(const Eigen::VectorXd& /*x*/, const Eigen::VectorXd& /*dx*/) const { return 1.0; }

@@ -144,7 +144,7 @@ void ProlongedTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection proj
     for (const auto& t : coarse_) t->add_hessian(x, projection, hessian);
     return;
   }
-  if (mode_ == ProlongedHessian::CoarseFirst && assemblies_in_step_++ < kCoarseFirstAssemblies) {
+  if (mode_ == ProlongedHessian::CoarseFirst && (assemblies_in_step_++ < kCoarseFirstAssemblies || keep_stand_in_)) {
     // The union pattern needs the Galerkin blocks' pattern from the term's first assembly on, not
     // from its first lagged phase: a run continued from stored frames (a new term) must assemble the
     // same pattern as the run it continues, or CHOLMOD orders another matrix and the frames differ
@@ -249,10 +249,17 @@ double ProlongedTerm::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& 
   return alpha;
 }
 
+bool ProlongedTerm::stand_in_hessian_ends() const {
+  return mode_ == ProlongedHessian::CoarseFirst && !keep_stand_in_ && assemblies_in_step_ == kCoarseFirstAssemblies;
+}
+
+void ProlongedTerm::keep_stand_in_hessian(bool keep) const { keep_stand_in_ = keep && mode_ == ProlongedHessian::CoarseFirst; }
+
 void ProlongedTerm::begin_step(const StepStart& step) {
   for (LaggedBlocks& set : lagged_) set.computed_at = -1;
   lagged_assemblies_ = 0;
   assemblies_in_step_ = 0;
+  keep_stand_in_ = false;
   StepStart fine = step;
   Eigen::VectorXd x_fine, v_fine;
   if (step.x) {

@@ -44,6 +44,9 @@
 //   CoarseFirst  the stand-in's Hessian for a step's first kCoarseFirstAssemblies Newton iterates, then
 //             Lagged for the rest of that step: cheap iterates where the stand-in is good enough, the
 //             Galerkin Hessian where it stalls (the pressurised ball, the cloth winding on a sphere).
+//             The solver may keep the stand-in past those assemblies when it finds it right where
+//             Newton is (keep_stand_in_hessian; solver/newton.cpp probes it): a Galerkin refresh costs
+//             about twenty fine values.
 //             Both phases assemble the union of their block patterns (zeros where a phase has no
 //             block) from the term's first assembly on, so switching does not re-analyse the coarse
 //             matrix and a run continued from stored frames assembles the same matrices.
@@ -171,6 +174,12 @@ class ProlongedTerm : public EnergyTerm {
   void add_hessian(const Eigen::VectorXd& x, HessianProjection projection, HessianAssembly& hessian) const override;
   // Hands every fine term the prolonged start state (positions P(x), velocities J v).
   void begin_step(const StepStart& step) override;
+  // CoarseFirst: true while the next add_hessian would be the step's first after the stand-in's
+  // kCoarseFirstAssemblies and nothing kept the stand-in. keep_stand_in_hessian(true) keeps it for
+  // the rest of the step (begin_step forgets that); false lets the next assembly turn to the lagged
+  // Galerkin Hessian, also after a keep.
+  bool stand_in_hessian_ends() const override;
+  void keep_stand_in_hessian(bool keep) const override;
   // The fine terms' admissible step along the linearised prolonged motion J dx (pressure's volume
   // guard); 1 without computing J dx when no fine term may limit the step (membrane and bending).
   double max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& dx) const override;
@@ -202,6 +211,7 @@ class ProlongedTerm : public EnergyTerm {
   mutable int lagged_assemblies_ = 0;           // lagged add_hessian calls since begin_step
   mutable std::size_t last_lagged_ = 0;         // the set computed last (CoarseFirst's block pattern)
   mutable int assemblies_in_step_ = 0;  // CoarseFirst: add_hessian calls since begin_step
+  mutable bool keep_stand_in_ = false;  // CoarseFirst: the solver kept the stand-in for this step
   mutable HessianAssembly coarse_hessian_;                 // CoarseFirst: the stand-in's, reused
   mutable std::vector<GalerkinProduct::Block> coarse_blocks_;  // its lower blocks, (column, row) order
 };

@@ -58,6 +58,16 @@ double IncrementalPotential::max_step(const Eigen::VectorXd& x, const Eigen::Vec
   return alpha;
 }
 
+bool IncrementalPotential::stand_in_hessian_ends() const {
+  for (const auto& t : terms_)
+    if (t->stand_in_hessian_ends()) return true;
+  return false;
+}
+
+void IncrementalPotential::keep_stand_in_hessian(bool keep) const {
+  for (const auto& t : terms_) t->keep_stand_in_hessian(keep);
+}
+
 std::vector<std::pair<std::string, double>> IncrementalPotential::term_values(const Eigen::VectorXd& x,
                                                                                 const std::string& skip) const {
   std::vector<std::pair<std::string, double>> out;

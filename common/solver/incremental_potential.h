@@ -40,6 +40,10 @@ class IncrementalPotential {
   // zero.
   bool hessian_product(const Eigen::VectorXd& x, const Eigen::VectorXd& g, const Eigen::VectorXd& v,
                        Eigen::VectorXd& out) const;
+  // Any term's stand-in Hessian phase ends at the next assembly (EnergyTerm::stand_in_hessian_ends);
+  // keep_stand_in_hessian passes the solver's verdict to every term.
+  bool stand_in_hessian_ends() const;
+  void keep_stand_in_hessian(bool keep) const;
   // Assembles every term's (projected) Hessian; fixed dofs get identity rows and columns.
   void hessian(const Eigen::VectorXd& x, HessianProjection projection, HessianAssembly& out) const;
   // min over terms of their admissible step fraction.

@@ -27,6 +27,17 @@ constexpr double kMaxExtension = 8.0;
 // cut steps measured above 2 (lagged Gauss-Newton blocks of a cloth winding onto a sphere).
 constexpr double kModelCurvatureBand = 1.5;
 
+// A stand-in Hessian about to give way to the costlier lagged Galerkin one (EnergyTerm::
+// stand_in_hessian_ends) is kept for the rest of the step when the true curvature along its step is
+// within this factor of its own. Tighter than kModelCurvatureBand: a stand-in too stiff along some
+// directions hides it along its step (its step is short there), so only a close match keeps it.
+// 30-frame previews, one thread (docs/performance.md, "Keeping the stand-in"): flag-large's probes
+// measured 1.00-1.08 on all but two steps; with 1.2 instead of 1.1 ball-drop took 260 Newton
+// iterations instead of 236, with 1.5 289.
+constexpr double kStandInBand = 1.1;
+
+bool within(double ratio, double band) { return std::isfinite(ratio) && ratio <= band && ratio >= 1.0 / band; }
+
 // Extends an accepted full step x + p to x + alpha p, alpha = 2, 4, ... up to kMaxExtension, while
 // the CCD bound admits it and the potential keeps strictly decreasing; `trial` and `trial_energy`
 // hold the accepted point. Returns whether it extended.
@@ -77,6 +88,19 @@ ExactCurvatureStep refine_on_true_curvature(const IncrementalPotential& ip, cons
       exact_curvature_step(product, solver, g, p, s.model_curvature_iterations, s.model_curvature_tolerance);
   r.exact_curvature_iterations += refined.iterations;
   return refined;
+}
+
+// The true curvature along the model step p at x against the model's (p^T H p / p^T C p, one
+// gradient difference; NaN when the product fails), g the gradient at x.
+double model_curvature_ratio(const IncrementalPotential& ip, const Eigen::VectorXd& x, const Eigen::VectorXd& g,
+                             const Eigen::VectorXd& p, const CholmodSolver& solver, NewtonReport& r) {
+  const HessianProduct product = [&](const Eigen::VectorXd& d, Eigen::VectorXd& out) {
+    return ip.hessian_product(x, g, d, out);
+  };
+  ++r.curvature_probes;
+  const ExactCurvatureStep one = exact_curvature_step(product, solver, g, p, 1, 0.0);
+  r.exact_curvature_iterations += one.iterations;
+  return one.first_curvature_ratio;
 }
 
 // The stopping test on the step p: its measure ||p||_inf / h below the step tolerance and, with
@@ -204,6 +228,12 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     } else if (refine_model) {
       p = refine_on_true_curvature(ip, x, g, p, solver, s, r).step;
     }
+    // A stand-in Hessian whose phase ends here stays for the rest of the step if it is right along
+    // its step (kStandInBand); a later failed step is still probed, and a wrong verdict then lets it
+    // go. Not once a probe found the model wrong: its steps are refined, and the Galerkin Hessian
+    // takes over as without probes.
+    if (s.model_curvature_iterations > 0 && !have_exact && model != Model::Wrong && ip.stand_in_hessian_ends())
+      ip.keep_stand_in_hessian(within(model_curvature_ratio(ip, x, g, p, solver, r), kStandInBand));
     r.solve_seconds += since(t0);
     ++r.iterations;
 
@@ -232,8 +262,9 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
       ++r.curvature_probes;
       ExactCurvatureStep refined = refine_on_true_curvature(ip, x, g, p, solver, s, r);
       const double ratio = refined.first_curvature_ratio;
-      if (std::isfinite(ratio) && (ratio > kModelCurvatureBand || ratio < 1.0 / kModelCurvatureBand)) {
+      if (std::isfinite(ratio) && !within(ratio, kModelCurvatureBand)) {
         model = Model::Wrong;
+        ip.keep_stand_in_hessian(false);
         p = std::move(refined.step);
         trial = first_trial(ip, x, p);
       } else if (std::isfinite(ratio)) {

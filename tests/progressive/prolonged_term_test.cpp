@@ -330,15 +330,22 @@ TEST(ProlongedTerm, LaggedHessianIsGalerkinAtRefreshesAndReusedBetweenThem) {
 // Coarse-first: the stand-in's Hessian for a step's first kCoarseFirstAssemblies assemblies, then the
 // lagged Galerkin one (computed at the switch, reused after it); a new step starts coarse again. Both
 // phases give the assembly one stencil sequence from the first assembly on, so its pattern stays put.
-TEST(ProlongedTerm, CoarseFirstHessianIsTheStandInsAtAStepsStartThenTheLaggedGalerkinOnOnePattern) {
+// A coarse-first term on the test sheet, two states, and the Galerkin term and stand-in it stands
+// between.
+struct CoarseFirstSheet {
   Sheet s;
-  auto state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
-  const Eigen::VectorXd x1 = s.deformed();
-  const Eigen::VectorXd x2 = 1.01 * x1 + Eigen::VectorXd::Constant(x1.size(), 0.002);
-  const HessianProjection clamp = HessianProjection::Clamp;
-  const ProlongedTerm galerkin(s.membrane(s.fine()), state, ProlongedHessian::Galerkin);
-  const auto stand_in = s.membrane(s.coarse());
-  ProlongedTerm first(s.membrane(s.fine()), state, ProlongedHessian::CoarseFirst, s.membrane(s.coarse()));
+  std::shared_ptr<ProlongationState> state = std::make_shared<ProlongationState>(s.P(), stacked(s.coarse().V));
+  Eigen::VectorXd x1 = s.deformed();
+  Eigen::VectorXd x2 = 1.01 * x1 + Eigen::VectorXd::Constant(x1.size(), 0.002);
+  HessianProjection clamp = HessianProjection::Clamp;
+  ProlongedTerm galerkin{s.membrane(s.fine()), state, ProlongedHessian::Galerkin};
+  std::unique_ptr<EnergyTerm> stand_in = s.membrane(s.coarse());
+  ProlongedTerm first{s.membrane(s.fine()), state, ProlongedHessian::CoarseFirst, s.membrane(s.coarse())};
+};
+
+TEST(ProlongedTerm, CoarseFirstHessianIsTheStandInsAtAStepsStartThenTheLaggedGalerkinOnOnePattern) {
+  CoarseFirstSheet c;
+  auto& [s, state, x1, x2, clamp, galerkin, stand_in, first] = c;
   const Eigen::MatrixXd coarse_x1 = test::term_hessian(*stand_in, x1, clamp);
   const Eigen::MatrixXd galerkin_x2 = test::term_hessian(galerkin, x2, clamp);
   ASSERT_GT((coarse_x1 - test::term_hessian(galerkin, x1, clamp)).norm(), 1e-3 * coarse_x1.norm());
@@ -369,6 +376,54 @@ TEST(ProlongedTerm, CoarseFirstHessianIsTheStandInsAtAStepsStartThenTheLaggedGal
   EXPECT_TRUE(pattern_changed[0]);
   for (std::size_t i = 1; i < pattern_changed.size(); ++i) EXPECT_FALSE(pattern_changed[i]) << "assembly " << i;
   EXPECT_THROW(ProlongedTerm(s.membrane(s.fine()), state, ProlongedHessian::CoarseFirst), std::invalid_argument);
+}
+
+// The solver's verdict on the stand-in (solver/newton.cpp): kept, the stand-in's Hessian goes on
+// past kCoarseFirstAssemblies; let go, the next assembly is the Galerkin one; the next step forgets
+// the verdict. The phase's end is announced exactly once per step, and never by the lagged mode.
+TEST(ProlongedTerm, CoarseFirstKeepsTheStandInForTheStepWhenToldAndTurnsToGalerkinWhenLetGo) {
+  CoarseFirstSheet c;
+  auto& [s, state, x1, x2, clamp, galerkin, stand_in, first] = c;
+  const Eigen::MatrixXd coarse_x2 = test::term_hessian(*stand_in, x2, clamp);
+  const Eigen::MatrixXd galerkin_x2 = test::term_hessian(galerkin, x2, clamp);
+  ASSERT_GT((coarse_x2 - galerkin_x2).norm(), 1e-3 * coarse_x2.norm());
+
+  const Eigen::VectorXd v = Eigen::VectorXd::Zero(x1.size());
+  HessianAssembly assembly;
+  const auto assemble = [&](const Eigen::VectorXd& x) {
+    assembly.begin(static_cast<int>(x.size()));
+    first.add_hessian(x, clamp, assembly);
+    return Eigen::MatrixXd(test::symmetric_from_lower(assembly.finish(nullptr)));
+  };
+  int checked = 0;
+  for (int step = 0; step < 2; ++step) {
+    first.begin_step({0.01, 0.01, &x1, &v});
+    for (int k = 0; k < kCoarseFirstAssemblies; ++k) {
+      checked += !first.stand_in_hessian_ends();
+      assemble(x1);
+    }
+    checked += first.stand_in_hessian_ends();
+    if (step == 0) {
+      first.keep_stand_in_hessian(true);
+      checked += !first.stand_in_hessian_ends();
+      for (int k = 0; k < 3; ++k) checked += assemble(x2) == coarse_x2;  // kept
+      first.keep_stand_in_hessian(false);
+    }
+    checked += assemble(x2) == galerkin_x2;  // let go, or never kept: the lagged Galerkin Hessian
+    checked += !first.stand_in_hessian_ends();
+  }
+  EXPECT_EQ(checked, 2 * (kCoarseFirstAssemblies + 3) + 4);
+
+  ProlongedTerm lagged(s.membrane(s.fine()), state, ProlongedHessian::Lagged, s.membrane(s.coarse()));
+  lagged.begin_step({0.01, 0.01, &x1, &v});
+  int announced = 0;
+  for (int k = 0; k <= kCoarseFirstAssemblies; ++k) {
+    announced += lagged.stand_in_hessian_ends();
+    assembly.begin(static_cast<int>(x1.size()));
+    lagged.add_hessian(x1, clamp, assembly);
+    assembly.finish(nullptr);
+  }
+  EXPECT_EQ(announced, 0) << "only coarse-first has a stand-in phase";
 }
 
 TEST(ProlongedTerm, HessianNamesParseAndUnknownOnesAreRefused) {

@@ -112,6 +112,7 @@ std::unique_ptr<EnergyTerm> reach_cap(double reach) {
 class ScaledModelTerm : public EnergyTerm {
  public:
   ScaledModelTerm(std::unique_ptr<EnergyTerm> term, double scale) : term_(std::move(term)), scale_(scale) {}
+  const EnergyTerm& wrapped() const { return *term_; }
   std::string name() const override { return "scaled_model"; }
   double value(const Eigen::VectorXd& x) const override { return term_->value(x); }
   void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g) const override { term_->add_gradient(x, g); }
@@ -133,6 +134,39 @@ class ScaledModelTerm : public EnergyTerm {
  private:
   std::unique_ptr<EnergyTerm> term_;
   double scale_;
+};
+
+// A term with a stand-in Hessian phase, as the coarse-first prolonged term has: its first
+// `stand_in_assemblies` Hessians of a step are `scale` times the wrapped term's, the later ones the
+// wrapped term's own (the costlier model; counted), unless the solver kept the stand-in.
+class StandInPhaseTerm : public EnergyTerm {
+ public:
+  StandInPhaseTerm(std::unique_ptr<EnergyTerm> term, double scale, int stand_in_assemblies)
+      : stand_in_(std::move(term), scale), term_(stand_in_.wrapped()), phase_(stand_in_assemblies) {}
+  std::string name() const override { return "stand_in_phase"; }
+  double value(const Eigen::VectorXd& x) const override { return term_.value(x); }
+  void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g) const override { term_.add_gradient(x, g); }
+  void add_hessian(const Eigen::VectorXd& x, HessianProjection p, HessianAssembly& H) const override {
+    if (assemblies_++ < phase_ || keep_) {
+      stand_in_.add_hessian(x, p, H);
+    } else {
+      ++costly_assemblies;
+      term_.add_hessian(x, p, H);
+    }
+  }
+  bool stand_in_hessian_ends() const override { return !keep_ && assemblies_ == phase_; }
+  void keep_stand_in_hessian(bool keep) const override {
+    keep_ = keep;
+    ++verdicts;
+  }
+  mutable int costly_assemblies = 0, verdicts = 0;
+
+ private:
+  ScaledModelTerm stand_in_;
+  const EnergyTerm& term_;
+  int phase_;
+  mutable int assemblies_ = 0;
+  mutable bool keep_ = false;
 };
 
 // E(x) = sum_i sqrt(1 + x_i^2): its Newton step from |x_i| > 1 overshoots the minimum at 0 by far
@@ -332,6 +366,50 @@ TEST(Newton, AStepCutForNonlinearityFartherAlongIsNotBlamedOnAnExactModel) {
   EXPECT_EQ(rb.iterations, ra.iterations);
   EXPECT_EQ(rb.line_search_cuts, ra.line_search_cuts);
   EXPECT_TRUE(a == b) << "the probes changed no step";
+}
+
+// A stand-in Hessian phase of two assemblies, then the exact Hessian. Newton with model probes
+// measures the stand-in along its step when its phase ends: at 1.05x the true curvature (ratio
+// 0.95, within 1.1x) it keeps the stand-in for the whole solve, and no costlier Hessian is
+// assembled; at 3x (ratio 0.33, a stand-in too stiff) it lets it go, as Newton without probes does.
+TEST(Newton, AStandInHessianIsKeptPastItsPhaseOnlyWhereTheTrueCurvatureAlongItsStepMatchesIt) {
+  Eigen::VectorXd c(6);
+  c << 1.5, -0.7, 2.0, 0.3, -1.1, 0.9;
+  struct Run {
+    NewtonReport report;
+    int costly = 0, verdicts = 0;
+  };
+  const auto run = [&](double scale, int probe_iterations) {
+    IncrementalPotential ip;
+    auto term = std::make_unique<StandInPhaseTerm>(std::make_unique<QuarticTerm>(c, 2.0), scale, 2);
+    const StandInPhaseTerm& phase = *term;
+    ip.add_term(std::move(term));
+    NewtonSettings s = settings(1e-6);  // a linear rate of 0.05 per iterate would meet round-off at 1e-10
+    s.model_curvature_iterations = probe_iterations;
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(6);
+    HessianAssembly H;
+    CholmodSolver solver;
+    Run out;
+    out.report = newton_minimize(ip, x, s, H, solver);
+    EXPECT_TRUE(out.report.converged) << "scale " << scale << ": " << out.report.stop_reason;
+    out.costly = phase.costly_assemblies;
+    out.verdicts = phase.verdicts;
+    return out;
+  };
+  const Run close = run(1.05, 10), stiff = run(3.0, 10), unprobed = run(1.05, 0);
+  EXPECT_EQ(unprobed.verdicts, 0) << "no probes, no verdicts";
+  EXPECT_EQ(unprobed.report.curvature_probes, 0);
+  EXPECT_GE(unprobed.report.iterations, 4) << "the solve outlasts the stand-in's phase";
+  EXPECT_EQ(unprobed.costly, unprobed.report.iterations - 2) << "every iterate after the phase";
+
+  EXPECT_EQ(close.report.curvature_probes, 1) << "probed once, when the phase ends";
+  EXPECT_EQ(close.verdicts, 1);
+  EXPECT_EQ(close.costly, 0) << "the stand-in was kept";
+  EXPECT_GE(close.report.iterations, 4);
+
+  EXPECT_EQ(stiff.report.curvature_probes, 1);
+  EXPECT_EQ(stiff.verdicts, 1);
+  EXPECT_EQ(stiff.costly, stiff.report.iterations - 2) << "let go: the costlier Hessian from the next iterate on";
 }
 
 }  // namespace
