@@ -31,7 +31,7 @@ constexpr double kModelCurvatureBand = 1.5;
 // stand_in_hessian_ends) is kept for the rest of the step when the true curvature along its step is
 // within this factor of its own. Tighter than kModelCurvatureBand: a stand-in too stiff along some
 // directions hides it along its step (its step is short there), so only a close match keeps it.
-// 30-frame previews, one thread (docs/performance.md, "Keeping the stand-in"): flag-large's probes
+// 30-frame previews, one thread (docs/performance.md, "Keeping the stand-in Hessian"): flag-large's probes
 // measured 1.00-1.08 on all but two steps; with 1.2 instead of 1.1 ball-drop took 260 Newton
 // iterations instead of 236, with 1.5 289.
 constexpr double kStandInBand = 1.1;

@@ -50,8 +50,10 @@ struct NewtonSettings {
   // true curvature along the model step is off the model's by more than 1.5x either way, the
   // refined step replaces it and every later iterate of the solve is refined the same way before its
   // line search; otherwise the step is cut as usual (the cause was nonlinearity farther along it) and
-  // the solve probes no more. 0: off. The tolerance is on the preconditioned residual's norm,
-  // relative.
+  // the solve probes no more. A term whose stand-in Hessian phase ends at the next assembly
+  // (EnergyTerm::stand_in_hessian_ends) has it probed the same way, by one product: within 1.1x the
+  // stand-in is kept for the rest of the step, and a later probe outside 1.5x lets it go (newton.cpp).
+  // 0: off. The tolerance is on the preconditioned residual's norm, relative.
   int model_curvature_iterations = 0;
   double model_curvature_tolerance = 0.1;
   // Called with every accepted iterate; it may change the potential's parameters (IPC's adaptive
@@ -73,7 +75,8 @@ struct NewtonReport {
   // Conjugate-gradient iterations that refined steps on the exact Hessian: clamped steps
   // (exact_curvature_iterations) and model steps (model_curvature_iterations)
   int exact_curvature_iterations = 0;
-  // Model Hessians: steps whose failed first trial had the true curvature probed
+  // Model Hessians: steps whose failed first trial had the true curvature probed, and stand-in
+  // phases probed at their end
   int curvature_probes = 0;
   bool converged = false;
   // "converged" | "max_iterations" | "no_descent" | "factorization_failed", or "pins_blocked" (set
