@@ -228,12 +228,6 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     } else if (refine_model) {
       p = refine_on_true_curvature(ip, x, g, p, solver, s, r).step;
     }
-    // A stand-in Hessian whose phase ends here stays for the rest of the step if it is right along
-    // its step (kStandInBand); a later failed step is still probed, and a wrong verdict then lets it
-    // go. Not once a probe found the model wrong: its steps are refined, and the Galerkin Hessian
-    // takes over as without probes.
-    if (s.model_curvature_iterations > 0 && !have_exact && model != Model::Wrong && ip.stand_in_hessian_ends())
-      ip.keep_stand_in_hessian(within(model_curvature_ratio(ip, x, g, p, solver, r), kStandInBand));
     r.solve_seconds += since(t0);
     ++r.iterations;
 
@@ -254,6 +248,12 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     // Newton wander at round-off level forever once the tolerance is below what the potential can
     // resolve; with strict decrease that case ends as "no_descent".
     t0 = Clock::now();
+    // A stand-in Hessian whose phase ends here stays for the rest of the step if it is right along
+    // its step (kStandInBand); a later failed step is still probed, and a wrong verdict then lets it
+    // go. Not once a probe found the model wrong: its steps are refined, and the Galerkin Hessian
+    // takes over as without probes. After the stopping test, so a step that ends here pays nothing.
+    if (s.model_curvature_iterations > 0 && !have_exact && model != Model::Wrong && ip.stand_in_hessian_ends())
+      ip.keep_stand_in_hessian(within(model_curvature_ratio(ip, x, g, p, solver, r), kStandInBand));
     Trial trial = first_trial(ip, x, p);
     const auto descends = [&] { return std::isfinite(trial.energy) && trial.energy < energy; };
     // A model Hessian's step that does not descend: probe the true curvature along it. Outside the
