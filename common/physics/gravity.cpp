@@ -1,11 +1,14 @@
 #include "physics/gravity.h"
 
-#include <cassert>
+#include <stdexcept>
+#include <string>
 
 namespace pd {
 
 GravityTerm::GravityTerm(const Eigen::VectorXd& masses, const Vec3& g) : gradient_(masses.size()) {
-  assert(masses.size() % 3 == 0);
+  if (masses.size() % 3 != 0)
+    throw std::invalid_argument("GravityTerm: masses has " + std::to_string(masses.size()) +
+                                " entries, not one per dof (3 per vertex)");
   for (Eigen::Index i = 0; i < masses.size(); ++i) gradient_[i] = -masses[i] * g[i % 3];
 }
 

@@ -12,7 +12,8 @@ namespace pd {
 
 class GravityTerm : public EnergyTerm {
  public:
-  // masses: per dof, kg (as lumped_masses returns, size 3n); g: acceleration, m/s^2.
+  // masses: per dof, kg (as lumped_masses returns, size 3n; std::invalid_argument otherwise);
+  // g: acceleration, m/s^2.
   GravityTerm(const Eigen::VectorXd& masses, const Vec3& g);
 
   std::string name() const override { return "gravity"; }

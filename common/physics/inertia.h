@@ -23,19 +23,22 @@ double kinetic_energy(const Eigen::VectorXd& masses, const Eigen::VectorXd& v);
 class InertiaTerm : public EnergyTerm {
  public:
   // masses: per dof, kg, over every vertex of the scene (size 3n). Pinned dofs keep their masses;
-  // the solver removes them from the system.
+  // the solver removes them from the system. Throws std::invalid_argument for a size that is not a
+  // multiple of 3 or a negative or non-finite mass.
   explicit InertiaTerm(Eigen::VectorXd masses);
 
   std::string name() const override { return "inertia"; }
 
-  // Requires begin_step() to have been called (h and xhat come from it). J.
+  // Require begin_step() to have been called (h and xhat come from it; std::logic_error otherwise)
+  // and x of the masses' size (std::invalid_argument). J.
   double value(const Eigen::VectorXd& x) const override;
   void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const override;
   // Diagonal M / h^2: positive, so no projection is ever needed whatever `projection` says.
   void add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                    HessianAssembly& hessian) const override;
 
-  // xhat = x_start + h v_start: where the vertices would go with no forces at all.
+  // xhat = x_start + h v_start: where the vertices would go with no forces at all. Throws
+  // std::invalid_argument for h <= 0, missing or wrongly sized positions or velocities.
   void begin_step(const StepStart& step) override;
   // Replaces xhat for the current step (after begin_step): progressive refinement's momentum comes
   // from the level below (PD eq. 5), not from this level's own x_start + h v_start. Size 3n, m.
@@ -49,6 +52,7 @@ class InertiaTerm : public EnergyTerm {
   Eigen::VectorXd mass_over_h2_;    // M / h^2, kg/s^2, cached per step for add_hessian
   Eigen::VectorXd xhat_;            // m
   double h_ = 0.0;                  // s
+  void check_state(const Eigen::VectorXd& x) const;
 };
 
 }  // namespace pd

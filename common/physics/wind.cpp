@@ -1,8 +1,9 @@
 #include "physics/wind.h"
 
 #include <algorithm>
-#include <cassert>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace pd {
 
@@ -12,15 +13,24 @@ Vec3 vertex(const Eigen::VectorXd& x, int i) { return x.segment<3>(3 * i); }
 }  // namespace
 
 WindTerm::WindTerm(const Faces& faces, const Wind& params)
-    : faces_(faces), params_(params), lagged_(static_cast<size_t>(faces.rows())) {}
+    : faces_(faces),
+      params_(params),
+      lagged_(static_cast<size_t>(faces.rows())),
+      min_dofs_(faces.size() == 0 ? 0 : 3 * (static_cast<Eigen::Index>(faces.maxCoeff()) + 1)) {}
 
 Vec3 WindTerm::air_velocity(double t) const {
   const double gust = 1.0 + params_.gust_amplitude * std::sin(2.0 * kPi * params_.gust_frequency * t);
   return params_.air_velocity * gust;
 }
 
+// Checked in every build, not only where NDEBUG is off: once per step, one comparison per evaluation.
 void WindTerm::begin_step(const StepStart& step) {
-  assert(step.h > 0.0 && step.x && step.v);
+  if (!(step.h > 0.0) || !step.x || !step.v)
+    throw std::invalid_argument("WindTerm::begin_step: needs a positive time step and start positions and velocities");
+  if (step.x->size() < min_dofs_ || step.v->size() != step.x->size())
+    throw std::invalid_argument("WindTerm::begin_step: positions have " + std::to_string(step.x->size()) +
+                                " dofs and velocities " + std::to_string(step.v->size()) + "; the faces need " +
+                                std::to_string(min_dofs_));
   h_ = step.h;
   const Vec3 w = air_velocity(step.time_end);
   const Eigen::VectorXd& xs = *step.x;
@@ -50,8 +60,19 @@ double WindTerm::normal_speed(const Eigen::VectorXd& x, int f) const {
   return lagged_[f].n.dot(sum) / (3.0 * h_) + lagged_[f].offset;
 }
 
+void WindTerm::check_state(const Eigen::VectorXd& x) const {
+  if (!(h_ > 0.0)) throw std::logic_error("WindTerm: evaluated before begin_step");
+  if (x.size() < min_dofs_)
+    throw std::invalid_argument("WindTerm: x has " + std::to_string(x.size()) + " dofs; the faces need " +
+                                std::to_string(min_dofs_));
+}
+
+std::vector<std::pair<std::string, double>> WindTerm::named_values(const Eigen::VectorXd& x) const {
+  return {{name(), h_ > 0.0 ? value(x) : 0.0}};
+}
+
 double WindTerm::value(const Eigen::VectorXd& x) const {
-  assert(h_ > 0.0);
+  check_state(x);
   double D = 0.0;
   for (int f = 0; f < static_cast<int>(faces_.rows()); ++f) {
     const double u = normal_speed(x, f);
@@ -62,7 +83,7 @@ double WindTerm::value(const Eigen::VectorXd& x) const {
 
 // dD/dx_a = h c u (du/dx_a) = h c u n / (3 h) = c u n / 3: minus the drag force on each vertex.
 void WindTerm::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
-  assert(h_ > 0.0);
+  check_state(x);
   for (int f = 0; f < static_cast<int>(faces_.rows()); ++f) {
     const Vec3 g = (lagged_[f].c * normal_speed(x, f) / 3.0) * lagged_[f].n;
     for (int a = 0; a < 3; ++a) grad.segment<3>(3 * faces_(f, a)) += g;
@@ -71,9 +92,9 @@ void WindTerm::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) con
 
 // d2D/dx_a dx_b = c / (9 h) n n^T for every pair (a, b): rank one and PSD. It still goes through
 // project_hessian so that every term honours the caller's choice the same way.
-void WindTerm::add_hessian(const Eigen::VectorXd& /*x*/, HessianProjection projection,
+void WindTerm::add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                            HessianAssembly& hessian) const {
-  assert(h_ > 0.0);
+  check_state(x);
   for (int f = 0; f < static_cast<int>(faces_.rows()); ++f) {
     const Mat3 block = (lagged_[f].c / (9.0 * h_)) * (lagged_[f].n * lagged_[f].n.transpose());
     Mat<9> H;

@@ -39,15 +39,20 @@ class WindTerm : public EnergyTerm {
 
   std::string name() const override { return "wind"; }
 
-  // All three require begin_step() to have been called: the potential is defined by the lagged
-  // start-of-step quantities.
+  // All three require begin_step() to have been called (std::logic_error otherwise): the potential
+  // is defined by the lagged start-of-step quantities.
   double value(const Eigen::VectorXd& x) const override;
   void add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const override;
   void add_hessian(const Eigen::VectorXd& x, HessianProjection projection,
                    HessianAssembly& hessian) const override;
 
   // Computes the lagged normals, coefficients and air velocity for the step ending at step.time_end.
+  // Throws std::invalid_argument for h <= 0, missing start state, or positions that do not hold
+  // every face's vertices.
   void begin_step(const StepStart& step) override;
+  // The frame statistics' value: value(x) once a step has begun; 0 before the first step (frame 0
+  // of a run), where no drag potential is defined yet (it was NaN there until 2026-12-07).
+  std::vector<std::pair<std::string, double>> named_values(const Eigen::VectorXd& x) const override;
 
   // w(t), m/s.
   Vec3 air_velocity(double t) const;
@@ -61,10 +66,13 @@ class WindTerm : public EnergyTerm {
     double offset = 0.0;    // -n . (x_start centroid) / h - n . w, m/s
   };
   double normal_speed(const Eigen::VectorXd& x, int f) const;
+  // std::logic_error before the first begin_step, std::invalid_argument for an x short of the faces
+  void check_state(const Eigen::VectorXd& x) const;
 
   Faces faces_;
   Wind params_;
   std::vector<Lagged> lagged_;  // one per face, sized once in the constructor
+  Eigen::Index min_dofs_;       // 3 (largest vertex id of the faces + 1)
   double h_ = 0.0;              // s
 };
 

@@ -58,5 +58,10 @@ TEST_F(GravityFixture, GradientAndZeroHessianMatchFiniteDifferences) {
               rg.best_rel_error, rh.best_rel_error);
 }
 
+TEST(Gravity, MassesThatAreNotThreePerVertexAreRefused) {
+  EXPECT_THROW(GravityTerm(Eigen::VectorXd::Ones(10), Vec3(0, -9.81, 0)), std::invalid_argument);
+  EXPECT_NO_THROW(GravityTerm(Eigen::VectorXd::Ones(9), Vec3(0, -9.81, 0)));
+}
+
 }  // namespace
 }  // namespace pd

@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+#include <stdexcept>
+
 #include "physics/gravity.h"
 #include "support/finite_difference.h"
 #include "support/term_eval.h"
@@ -116,6 +119,28 @@ TEST_F(InertiaFixture, MinimiserUnderGravityIsImplicitEulerFreeFall) {
   Eigen::VectorXd g1 = test::term_gradient(term, x1);
   gravity.add_gradient(x1, g1);
   EXPECT_LT(g1.cwiseAbs().maxCoeff(), 1e-9);
+}
+
+// Wrong sizes and a missing step are errors in every build (they were asserts, so a Release build
+// read past the mass vector and returned garbage).
+TEST_F(InertiaFixture, WrongSizesBadMassesAndAMissingStepAreRefusedInEveryBuild) {
+  EXPECT_THROW(InertiaTerm(Eigen::VectorXd::Ones(7)), std::invalid_argument);
+  Eigen::VectorXd negative = masses;
+  negative[4] = -1.0;
+  EXPECT_THROW(InertiaTerm{negative}, std::invalid_argument);
+  negative[4] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(InertiaTerm{negative}, std::invalid_argument);
+
+  InertiaTerm fresh{masses};
+  EXPECT_THROW(fresh.value(x0), std::logic_error) << "no begin_step yet";
+  const Eigen::VectorXd short_x = x0.head(24);
+  EXPECT_THROW(fresh.begin_step(StepStart{0.5, h, &short_x, &v0}), std::invalid_argument);
+  EXPECT_THROW(fresh.begin_step(StepStart{0.5, 0.0, &x0, &v0}), std::invalid_argument);
+  EXPECT_THROW(fresh.begin_step(StepStart{0.5, h, &x0, nullptr}), std::invalid_argument);
+  EXPECT_THROW(term.value(short_x), std::invalid_argument);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(24);
+  EXPECT_THROW(term.add_gradient(short_x, g), std::invalid_argument);
+  EXPECT_NO_THROW(term.value(x0));
 }
 
 }  // namespace

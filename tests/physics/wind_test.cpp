@@ -174,5 +174,26 @@ TEST(Wind, EdgeOnAirGivesNoForceAndFloorDrag) {
   EXPECT_LT((total_force(test::term_gradient(term, x)) - expected).norm(), 1e-12 * expected.norm());
 }
 
+// A missing step, a non-positive step and positions that do not hold every face's vertices are
+// errors in every build (they were asserts); the statistics' value before any step is 0.
+TEST_F(WindFixture, AMissingStepAndPositionsShortOfTheFacesAreRefusedInEveryBuild) {
+  WindTerm term(F, params);
+  EXPECT_THROW(term.value(xs), std::logic_error);
+  // The frame statistics of frame 0 ask before any step: no drag potential yet, 0 (it was NaN).
+  const auto before = term.named_values(xs);
+  ASSERT_EQ(before.size(), 1u);
+  EXPECT_EQ(before[0].first, "wind");
+  EXPECT_EQ(before[0].second, 0.0);
+  const Eigen::VectorXd short_x = xs.head(24), short_v = vs.head(24);
+  EXPECT_THROW(term.begin_step(StepStart{t_end, h, &short_x, &short_v}), std::invalid_argument);
+  EXPECT_THROW(term.begin_step(StepStart{t_end, h, &xs, &short_v}), std::invalid_argument);
+  EXPECT_THROW(term.begin_step(StepStart{t_end, -h, &xs, &vs}), std::invalid_argument);
+  EXPECT_NO_THROW(term.begin_step(StepStart{t_end, h, &xs, &vs}));
+  EXPECT_THROW(term.value(short_x), std::invalid_argument);
+  const Eigen::VectorXd moved = xs + 0.01 * vs;
+  EXPECT_GT(term.value(moved), 0.0);
+  EXPECT_EQ(term.named_values(moved)[0].second, term.value(moved)) << "after a step, the value itself";
+}
+
 }  // namespace
 }  // namespace pd
