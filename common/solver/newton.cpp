@@ -75,17 +75,20 @@ Trial first_trial(const IncrementalPotential& ip, const Eigen::VectorXd& x, cons
   return t;
 }
 
+// Products with the potential's own Hessian at x (g its gradient there), by differences of
+// gradients. The product refers to ip, x and g: use it while they live.
+HessianProduct true_hessian_product(const IncrementalPotential& ip, const Eigen::VectorXd& x, const Eigen::VectorXd& g) {
+  return [&ip, &x, &g](const Eigen::VectorXd& d, Eigen::VectorXd& out) { return ip.hessian_product(x, g, d, out); };
+}
+
 // Model Hessians (NewtonSettings::model_curvature_iterations): the model step p refined by conjugate
-// gradients on the potential's own Hessian, whose products are differences of gradients at x (g =
-// its gradient), preconditioned by the model's factorization in `solver`.
+// gradients on the potential's own Hessian (true_hessian_product), preconditioned by the model's
+// factorization in `solver`.
 ExactCurvatureStep refine_on_true_curvature(const IncrementalPotential& ip, const Eigen::VectorXd& x,
                                             const Eigen::VectorXd& g, const Eigen::VectorXd& p,
                                             const CholmodSolver& solver, const NewtonSettings& s, NewtonReport& r) {
-  const HessianProduct product = [&](const Eigen::VectorXd& d, Eigen::VectorXd& out) {
-    return ip.hessian_product(x, g, d, out);
-  };
-  ExactCurvatureStep refined =
-      exact_curvature_step(product, solver, g, p, s.model_curvature_iterations, s.model_curvature_tolerance);
+  ExactCurvatureStep refined = exact_curvature_step(true_hessian_product(ip, x, g), solver, g, p,
+                                                    s.model_curvature_iterations, s.model_curvature_tolerance);
   r.exact_curvature_iterations += refined.iterations;
   return refined;
 }
@@ -94,11 +97,8 @@ ExactCurvatureStep refine_on_true_curvature(const IncrementalPotential& ip, cons
 // gradient difference; NaN when the product fails), g the gradient at x.
 double model_curvature_ratio(const IncrementalPotential& ip, const Eigen::VectorXd& x, const Eigen::VectorXd& g,
                              const Eigen::VectorXd& p, const CholmodSolver& solver, NewtonReport& r) {
-  const HessianProduct product = [&](const Eigen::VectorXd& d, Eigen::VectorXd& out) {
-    return ip.hessian_product(x, g, d, out);
-  };
   ++r.curvature_probes;
-  const ExactCurvatureStep one = exact_curvature_step(product, solver, g, p, 1, 0.0);
+  const ExactCurvatureStep one = exact_curvature_step(true_hessian_product(ip, x, g), solver, g, p, 1, 0.0);
   r.exact_curvature_iterations += one.iterations;
   return one.first_curvature_ratio;
 }
