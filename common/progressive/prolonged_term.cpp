@@ -249,11 +249,12 @@ double ProlongedTerm::max_step(const Eigen::VectorXd& x, const Eigen::VectorXd& 
   return alpha;
 }
 
+// Only coarse-first counts its assemblies, and only its add_hessian reads the keep.
 bool ProlongedTerm::stand_in_hessian_ends() const {
-  return mode_ == ProlongedHessian::CoarseFirst && !keep_stand_in_ && assemblies_in_step_ == kCoarseFirstAssemblies;
+  return !keep_stand_in_ && assemblies_in_step_ == kCoarseFirstAssemblies;
 }
 
-void ProlongedTerm::keep_stand_in_hessian(bool keep) const { keep_stand_in_ = keep && mode_ == ProlongedHessian::CoarseFirst; }
+void ProlongedTerm::keep_stand_in_hessian(bool keep) const { keep_stand_in_ = keep; }
 
 void ProlongedTerm::begin_step(const StepStart& step) {
   for (LaggedBlocks& set : lagged_) set.computed_at = -1;

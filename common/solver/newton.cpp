@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "solver/exact_curvature_step.h"
 
@@ -75,32 +76,32 @@ Trial first_trial(const IncrementalPotential& ip, const Eigen::VectorXd& x, cons
   return t;
 }
 
-// Products with the potential's own Hessian at x (g its gradient there), by differences of
-// gradients. The product refers to ip, x and g: use it while they live.
-HessianProduct true_hessian_product(const IncrementalPotential& ip, const Eigen::VectorXd& x, const Eigen::VectorXd& g) {
-  return [&ip, &x, &g](const Eigen::VectorXd& d, Eigen::VectorXd& out) { return ip.hessian_product(x, g, d, out); };
-}
-
 // Model Hessians (NewtonSettings::model_curvature_iterations): the model step p refined by conjugate
-// gradients on the potential's own Hessian (true_hessian_product), preconditioned by the model's
-// factorization in `solver`.
+// gradients on the potential's own Hessian, whose products are differences of gradients at x (g =
+// its gradient), preconditioned by the model's factorization in `solver`.
 ExactCurvatureStep refine_on_true_curvature(const IncrementalPotential& ip, const Eigen::VectorXd& x,
                                             const Eigen::VectorXd& g, const Eigen::VectorXd& p,
                                             const CholmodSolver& solver, const NewtonSettings& s, NewtonReport& r) {
-  ExactCurvatureStep refined = exact_curvature_step(true_hessian_product(ip, x, g), solver, g, p,
-                                                    s.model_curvature_iterations, s.model_curvature_tolerance);
+  const HessianProduct product = [&](const Eigen::VectorXd& d, Eigen::VectorXd& out) {
+    return ip.hessian_product(x, g, d, out);
+  };
+  ExactCurvatureStep refined =
+      exact_curvature_step(product, solver, g, p, s.model_curvature_iterations, s.model_curvature_tolerance);
   r.exact_curvature_iterations += refined.iterations;
   return refined;
 }
 
-// The true curvature along the model step p at x against the model's (p^T H p / p^T C p, one
-// gradient difference; NaN when the product fails), g the gradient at x.
+// The true curvature along the model step p = -C^{-1} g at x against the model's: p^T H p over
+// p^T C p = -g^T p, with H p one difference of gradients (the same ratio as the refinement's first
+// iteration, without its solve). NaN when the product fails.
 double model_curvature_ratio(const IncrementalPotential& ip, const Eigen::VectorXd& x, const Eigen::VectorXd& g,
-                             const Eigen::VectorXd& p, const CholmodSolver& solver, NewtonReport& r) {
+                             const Eigen::VectorXd& p, NewtonReport& r) {
   ++r.curvature_probes;
-  const ExactCurvatureStep one = exact_curvature_step(true_hessian_product(ip, x, g), solver, g, p, 1, 0.0);
-  r.exact_curvature_iterations += one.iterations;
-  return one.first_curvature_ratio;
+  Eigen::VectorXd Hp;
+  if (!ip.hessian_product(x, g, p, Hp)) return std::numeric_limits<double>::quiet_NaN();
+  const double curvature = p.dot(Hp);
+  if (curvature > 0.0) ++r.exact_curvature_iterations;  // counted as that first iteration was
+  return curvature / (-g).dot(p);
 }
 
 // The stopping test on the step p: its measure ||p||_inf / h below the step tolerance and, with
@@ -253,7 +254,7 @@ NewtonReport newton_minimize(const IncrementalPotential& ip, Eigen::VectorXd& x,
     // go. Not once a probe found the model wrong: its steps are refined, and the Galerkin Hessian
     // takes over as without probes. After the stopping test, so a step that ends here pays nothing.
     if (s.model_curvature_iterations > 0 && !have_exact && model != Model::Wrong && ip.stand_in_hessian_ends())
-      ip.keep_stand_in_hessian(within(model_curvature_ratio(ip, x, g, p, solver, r), kStandInBand));
+      ip.keep_stand_in_hessian(within(model_curvature_ratio(ip, x, g, p, r), kStandInBand));
     Trial trial = first_trial(ip, x, p);
     const auto descends = [&] { return std::isfinite(trial.energy) && trial.energy < energy; };
     // A model Hessian's step that does not descend: probe the true curvature along it. Outside the
