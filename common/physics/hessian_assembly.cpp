@@ -11,6 +11,12 @@ void HessianAssembly::begin(int num_dofs) {
   stencil_.clear();
   num_values_ = 0;
   diagonal_ = Eigen::VectorXd::Zero(num_dofs);
+  pattern_only_ = false;
+}
+
+void HessianAssembly::begin_pattern(int num_dofs) {
+  begin(num_dofs);
+  pattern_only_ = true;
 }
 
 void HessianAssembly::add_diagonal(const Eigen::VectorXd& d) { diagonal_ += d; }
@@ -165,6 +171,10 @@ const HessianAssembly::SparseMatrix& HessianAssembly::finish(bool* pattern_chang
   const bool changed = !have_pattern_ || stencil_ != previous_stencil_;
   if (changed) rebuild_pattern();
   if (pattern_changed) *pattern_changed = changed;
+  if (pattern_only_) {  // no element values were written: see begin_pattern
+    std::fill(matrix_.valuePtr(), matrix_.valuePtr() + matrix_.nonZeros(), 0.0);
+    return matrix_;
+  }
 
   // Each entry sums its element values in value order, then the diagonal is added and fixed dofs
   // are made identity rows and columns: the operations of a serial scatter in value order, entry by

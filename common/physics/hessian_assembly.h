@@ -26,6 +26,12 @@ class HessianAssembly {
 
   // Starts an assembly for `num_dofs` unknowns (3 per vertex). Call before the energies add blocks.
   void begin(int num_dofs);
+  // Starts an assembly of the sparsity pattern alone: add() and add_elements() record the element
+  // stencils and skip their blocks (add_elements does not call hessian(e)), and finish() returns the
+  // pattern with every stored value 0. For a caller that needs the pattern of a Hessian it will not
+  // use (ProlongedTerm's first coarse-first assembly: its fine element Hessians took as long as two
+  // fine gradients). The next begin() assembles values again, with this pattern already analysed.
+  void begin_pattern(int num_dofs);
 
   // Adds the element Hessian H (3N x 3N, rows/cols ordered as vertex verts[0] xyz, verts[1] xyz, ...).
   template <int N>
@@ -33,7 +39,7 @@ class HessianAssembly {
     push_stencil<N>(verts);
     const size_t first = num_values_;
     reserve_values(first + lower_entry_count<N>(verts));
-    write_lower_entries<N>(verts, H, values_.data() + first);
+    if (!pattern_only_) write_lower_entries<N>(verts, H, values_.data() + first);
   }
 
   // Adds `count` element Hessians at once: verts(e) -> std::array<int, N>, hessian(e) -> the 3N x 3N
@@ -51,6 +57,7 @@ class HessianAssembly {
       end += lower_entry_count<N>(v);
     }
     reserve_values(end);
+    if (pattern_only_) return;
     parallel_for_index(count, [&](int e) {
       write_lower_entries<N>(verts(e), hessian(e), values_.data() + element_offsets_[static_cast<size_t>(e)]);
     });
@@ -77,9 +84,10 @@ class HessianAssembly {
   void build_gather(const std::vector<int>& occurrence_block);
 
   // Makes values_[0, n) usable and num_values_ = n. values_ only grows: it is not cleared between
-  // assemblies, which would zero-fill tens of megabytes every Newton iteration.
+  // assemblies, which would zero-fill tens of megabytes every Newton iteration. A pattern-only
+  // assembly writes no values and leaves it alone (15 MB on flag-large's fine terms).
   void reserve_values(size_t n) {
-    if (values_.size() < n) values_.resize(std::max(n, 2 * values_.size()));
+    if (!pattern_only_ && values_.size() < n) values_.resize(std::max(n, 2 * values_.size()));
     num_values_ = n;
   }
   template <int N>
@@ -135,6 +143,7 @@ class HessianAssembly {
   std::vector<char> fixed_;
   SparseMatrix matrix_;
   bool have_pattern_ = false;
+  bool pattern_only_ = false;  // begin_pattern's assembly: stencils only, see there
 };
 
 }  // namespace pd

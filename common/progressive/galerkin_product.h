@@ -39,7 +39,12 @@ class GalerkinProduct {
   // std::invalid_argument when the sizes do not fit together or a dimension is not a multiple of 3.
   const std::vector<Block>& compute(const Eigen::SparseMatrix<double>& H_lower, const Eigen::SparseMatrix<double>& J);
 
-  // The last compute()'s blocks (empty before the first).
+  // The blocks compute(H_lower, J) would give, each set to zero: the pattern alone, which depends
+  // only on H's and J's patterns (their values are not read). Builds the plans as compute() does, so
+  // a later compute() on the same patterns pays only the arithmetic. Throws as compute() does.
+  const std::vector<Block>& pattern(const Eigen::SparseMatrix<double>& H_lower, const Eigen::SparseMatrix<double>& J);
+
+  // The last compute()'s or pattern()'s blocks (empty before the first).
   const std::vector<Block>& blocks() const { return blocks_; }
 
   // How many times the plans were built (1 for a run whose patterns never change); for tests.
@@ -52,6 +57,8 @@ class GalerkinProduct {
     void take(const Eigen::SparseMatrix<double>& A);
   };
   void build_plans(const Eigen::SparseMatrix<double>& H_lower, const Eigen::SparseMatrix<double>& J);
+  // Checks the sizes and builds the plans unless H's and J's patterns are those of the last call.
+  void prepare(const Eigen::SparseMatrix<double>& H_lower, const Eigen::SparseMatrix<double>& J);
 
   Pattern h_pattern_, j_pattern_;
   int plans_built_ = 0;

@@ -191,8 +191,10 @@ class ProlongedTerm : public EnergyTerm {
   ProlongedHessian mode_;
   std::vector<std::unique_ptr<EnergyTerm>> coarse_;
   bool may_limit_step_ = false;  // some fine term may limit the step
-  void compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection,
-                               GalerkinProduct& product) const;
+  // Galerkin blocks at x into `product`; with values == false their pattern alone (zero blocks, no
+  // fine element Hessian computed: HessianAssembly::begin_pattern, GalerkinProduct::pattern).
+  void compute_galerkin_blocks(const Eigen::VectorXd& x, HessianProjection projection, GalerkinProduct& product,
+                               bool values = true) const;
   void compute_coarse_blocks(const Eigen::VectorXd& x, HessianProjection projection) const;
   void add_blocks(const std::vector<GalerkinProduct::Block>& values,
                   const std::vector<GalerkinProduct::Block>& pattern_only, HessianAssembly& hessian) const;

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cstring>
 #include <random>
 
@@ -146,6 +147,52 @@ TEST(HessianAssembly, BlockBuiltPatternEqualsEntryByEntryAssemblyBitForBit) {
       ASSERT_EQ(L.valuePtr()[k], R.valuePtr()[k]) << "slot " << k;  // same bits: same sums in the same order
     EXPECT_GT(R.nonZeros(), 9 * nv);  // the elements overlap: far more entries compared than the diagonal
   }
+}
+
+// begin_pattern: the stencils are recorded, no element block is computed (add_elements never calls
+// hessian(e)), finish() gives the pattern of a value assembly with zeros; the value assembly that
+// follows finds the pattern analysed and gives the bits of an assembly that never saw begin_pattern.
+TEST(HessianAssembly, APatternOnlyAssemblyComputesNoBlockAndLeavesItsPatternToTheNextAssembly) {
+  const int n = 3 * 7;
+  const std::array<std::array<int, 3>, 4> faces = {{{0, 1, 2}, {2, 1, 3}, {3, 4, 2}, {6, 5, 4}}};
+  const auto H = random_symmetric<3>(11);
+  const auto H4 = random_symmetric<4>(12);
+  int blocks_computed = 0;
+  const auto assemble = [&](HessianAssembly& asmb) {
+    asmb.add_elements<3>(static_cast<int>(faces.size()), [&](int e) { return faces[static_cast<size_t>(e)]; },
+                         [&](int e) {
+                           ++blocks_computed;
+                           return Eigen::Matrix<double, 9, 9>((1.0 + e) * H);
+                         });
+    asmb.add<4>({5, 0, 3, 1}, H4);
+    asmb.add_diagonal(Eigen::VectorXd::LinSpaced(n, 1.0, 2.0));
+  };
+  HessianAssembly reference;
+  reference.begin(n);
+  assemble(reference);
+  const HessianAssembly::SparseMatrix R = reference.finish(nullptr);
+  ASSERT_EQ(blocks_computed, 4);
+
+  HessianAssembly asmb;
+  asmb.begin_pattern(n);
+  assemble(asmb);
+  EXPECT_EQ(blocks_computed, 4);  // none more
+  bool changed = false;
+  const HessianAssembly::SparseMatrix P = asmb.finish(&changed);
+  EXPECT_TRUE(changed);
+  ASSERT_EQ(P.nonZeros(), R.nonZeros());
+  EXPECT_EQ(0, std::memcmp(P.outerIndexPtr(), R.outerIndexPtr(), sizeof(int) * static_cast<size_t>(n + 1)));
+  EXPECT_EQ(0, std::memcmp(P.innerIndexPtr(), R.innerIndexPtr(), sizeof(int) * static_cast<size_t>(R.nonZeros())));
+  for (Eigen::Index k = 0; k < P.nonZeros(); ++k) ASSERT_EQ(P.valuePtr()[k], 0.0) << "slot " << k;
+
+  asmb.begin(n);
+  assemble(asmb);
+  EXPECT_EQ(blocks_computed, 8);
+  const HessianAssembly::SparseMatrix& V = asmb.finish(&changed);
+  EXPECT_FALSE(changed);
+  ASSERT_EQ(V.nonZeros(), R.nonZeros());
+  EXPECT_EQ(0, std::memcmp(V.valuePtr(), R.valuePtr(), sizeof(double) * static_cast<size_t>(R.nonZeros())));
+  EXPECT_GT(R.nonZeros(), n);  // the elements add entries off the diagonal
 }
 
 TEST(HessianAssembly, FixedDofsGetIdentityRowsAndColumns) {

@@ -1,13 +1,14 @@
 // The blocked Galerkin product (progressive/galerkin_product.h) against a dense J^T H J: every lower
 // block present and equal, every absent block zero, the order column by column, plans reused while
-// the patterns repeat and rebuilt when they change, partial blocks (U (x) I3's diagonal entries), and
-// sizes that do not fit.
+// the patterns repeat and rebuilt when they change, partial blocks (U (x) I3's diagonal entries), the
+// pattern alone, and sizes that do not fit.
 #include "progressive/galerkin_product.h"
 #include "util/parallel.h"
 
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <limits>
 #include <random>
 #include <set>
 #include <utility>
@@ -146,6 +147,35 @@ TEST(GalerkinProduct, GivesTheSameBitsOnOneTwoAndThreeThreads) {
   }
   EXPECT_GT(compared, 2 * 1000);
   EXPECT_GT(expect_matches_dense(results[0], dense_galerkin(H, J)), 1000);
+}
+
+// pattern() is compute()'s block list with zero blocks, read from the patterns alone (H and J hold
+// NaN here), and its plans serve the compute() that follows: no second build, the same bits as a
+// product that never ran pattern().
+TEST(GalerkinProduct, PatternListsComputesBlocksAsZerosAndKeepsItsPlansForCompute) {
+  std::mt19937 rng(17);
+  const Sparse J = random_jacobian(60, 15, false, rng);
+  const Sparse H = random_lower_hessian(60, 150, rng);
+  Sparse H_nan = H, J_nan = J;
+  for (int k = 0; k < H_nan.nonZeros(); ++k) H_nan.valuePtr()[k] = std::numeric_limits<double>::quiet_NaN();
+  for (int k = 0; k < J_nan.nonZeros(); ++k) J_nan.valuePtr()[k] = std::numeric_limits<double>::quiet_NaN();
+  GalerkinProduct fresh, primed;
+  const std::vector<GalerkinProduct::Block> expected = fresh.compute(H, J);
+  const std::vector<GalerkinProduct::Block> pattern = primed.pattern(H_nan, J_nan);
+  ASSERT_EQ(pattern.size(), expected.size());
+  for (std::size_t b = 0; b < pattern.size(); ++b) {
+    EXPECT_EQ(pattern[b].i, expected[b].i);
+    EXPECT_EQ(pattern[b].j, expected[b].j);
+    EXPECT_TRUE(pattern[b].block.isZero(0.0)) << "block " << b;
+  }
+  const std::vector<GalerkinProduct::Block>& got = primed.compute(H, J);
+  EXPECT_EQ(primed.plans_built(), 1);
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t b = 0; b < got.size(); ++b)
+    EXPECT_EQ(std::memcmp(got[b].block.data(), expected[b].block.data(), sizeof(Mat3)), 0) << "block " << b;
+  EXPECT_GT(expected.size(), 15u);  // more blocks than the diagonal ones
+  for (const GalerkinProduct::Block& b : primed.pattern(H, J)) EXPECT_TRUE(b.block.isZero(0.0));  // plans kept, values cleared
+  EXPECT_THROW(primed.pattern(Sparse(31, 31), Sparse(31, 15)), std::invalid_argument);
 }
 
 TEST(GalerkinProduct, RefusesSizesThatDoNotFit) {
