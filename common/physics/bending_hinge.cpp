@@ -8,6 +8,7 @@
 #include <string>
 
 #include "physics/element_loops.h"
+#include "physics/lanes.h"
 
 namespace pd {
 
@@ -19,30 +20,55 @@ constexpr double kDegenerateRatio = 1e-12;
 // The hinge in relative coordinates: everything is measured from x0, so that
 //   e = x1 - x0 (edge), a = x2 - x0 (wing 1), b = x3 - x0 (wing 2),
 //   n1 = e x a, n2 = b x e (face normals, length = twice the triangle area).
+// T is double, or Lanes for two hinges at once (physics/lanes.h: each lane gets the double's bits).
+template <class T>
 struct HingeFrame {
-  Vec3 e, a, b, n1, n2;
-  double len;  // |e|
-  bool degenerate;
-
-  explicit HingeFrame(const Vec<12>& x) {
-    const Vec3 x0 = x.segment<3>(0);
-    e = x.segment<3>(3) - x0;
-    a = x.segment<3>(6) - x0;
-    b = x.segment<3>(9) - x0;
-    n1 = e.cross(a);
-    n2 = b.cross(e);
-    len = e.norm();
-    // |n| > tol compared squared (no square roots); tol^2 underflows only for |e| < 1e-70 m.
-    const double tol = kDegenerateRatio * len * len, tol2 = tol * tol;
-    degenerate = !(n1.squaredNorm() > tol2 && n2.squaredNorm() > tol2);  // also true for len == 0 or NaN input
-  }
+  V3<T> e, a, b, n1, n2;
+  T len;           // |e|
+  T n1_sq, n2_sq;  // |n1|^2, |n2|^2
 };
+
+template <class T>
+HingeFrame<T> hinge_frame(const V3<T>& x0, const V3<T>& x1, const V3<T>& x2, const V3<T>& x3) {
+  HingeFrame<T> f;
+  f.e = x1 - x0;
+  f.a = x2 - x0;
+  f.b = x3 - x0;
+  f.n1 = cross(f.e, f.a);
+  f.n2 = cross(f.b, f.e);
+  f.len = sqrt_of(dot(f.e, f.e));
+  f.n1_sq = dot(f.n1, f.n1);
+  f.n2_sq = dot(f.n2, f.n2);
+  return f;
+}
+
+HingeFrame<double> hinge_frame(const Vec<12>& x) {
+  const auto at = [&x](int k) { return V3<double>{x[3 * k], x[3 * k + 1], x[3 * k + 2]}; };
+  return hinge_frame(at(0), at(1), at(2), at(3));
+}
+
+// Hinges e0 (lane 0) and e1 (lane 1) of the stacked positions x.
+HingeFrame<Lanes> hinge_frame_pair(const Eigen::VectorXd& x, const Hinge& h0, const Hinge& h1) {
+  const auto at = [&](int k) { return vertex_pair(x, h0.v[k], h1.v[k]); };
+  return hinge_frame(at(0), at(1), at(2), at(3));
+}
+
+// Lane l of a pair's frame, and a double frame's only lane.
+bool degenerate(double len, double n1_sq, double n2_sq) {
+  // |n| > tol compared squared (no square roots); tol^2 underflows only for |e| < 1e-70 m.
+  const double tol = kDegenerateRatio * len * len, tol2 = tol * tol;
+  return !(n1_sq > tol2 && n2_sq > tol2);  // also true for len == 0 or NaN input
+}
+template <class T>
+bool degenerate(const HingeFrame<T>& f, int l) {
+  return degenerate(lane(f.len, l), lane(f.n1_sq, l), lane(f.n2_sq, l));
+}
 
 // Both wings are handled by one function of the edge e and the wing vector c:
 //   F(e, c) = -|e| N / |N|^2,  N = e x c  (the frame's n1 for c = a, -n2 for c = b: passed in, not
 //   recomputed; the negation is exact, so the bits are those of computing e x b).
 // dtheta/da = F(e, a) (moving x2 along n1 folds the hinge towards its normals: theta decreases),
-// and since n2 = -(e x b), dtheta/db = -F(e, b).
+// and since n2 = -(e x b), dtheta/db = -F(e, b). The Hessian's form, on Eigen vectors:
 Vec3 wing_gradient(double len, const Vec3& N) {
   return -len / N.squaredNorm() * N;
 }
@@ -68,27 +94,55 @@ Vec3 alpha_gradient(const Vec3& e, double len2, const Vec3& c) {
 
 // The angle and its derivatives from a frame built once per hinge and call (each public function
 // below builds one; the bending energy's gradient and Hessian share theirs).
-double angle_of(const HingeFrame& f) {
-  if (f.degenerate) return 0.0;
-  // (n1 x n2) is parallel to e; its signed length along e^ is the sine part.
-  const double sine_part = f.n1.cross(f.n2).dot(f.e) / f.len;
-  return std::atan2(sine_part, f.n1.dot(f.n2));
+// (n1 x n2) is parallel to e; its signed length along e^ is the sine part, n1 . n2 the cosine part.
+template <class T>
+T sine_part(const HingeFrame<T>& f) {
+  return dot(cross(f.n1, f.n2), f.e) / f.len;
 }
+template <class T>
+T cosine_part(const HingeFrame<T>& f) {
+  return dot(f.n1, f.n2);
+}
+// The angle of lane l (0 for a degenerate hinge), from its frame's sine and cosine parts.
+template <class T>
+double angle_of(const HingeFrame<T>& f, const T& sine, const T& cosine, int l) {
+  return degenerate(f, l) ? 0.0 : std::atan2(lane(sine, l), lane(cosine, l));
+}
+double angle_of(const HingeFrame<double>& f) { return angle_of(f, sine_part(f), cosine_part(f), 0); }
 
 // Relative-coordinate gradient (G_e, G_a, G_b) mapped back to the vertices:
-// x1 moves only e, x2 only a, x3 only b, and x0 moves all three with a minus sign.
-Vec<12> angle_gradient_of(const HingeFrame& f) {
-  Vec<12> g = Vec<12>::Zero();
-  if (f.degenerate) return g;
-  const double len2 = f.len * f.len;
-  const Vec3 Ga = wing_gradient(f.len, f.n1);
-  const Vec3 Gb = -wing_gradient(f.len, -f.n2);
-  const double alpha1 = f.a.dot(f.e) / len2, alpha2 = f.b.dot(f.e) / len2;
-  const Vec3 Ge = -alpha1 * Ga - alpha2 * Gb;
-  g.segment<3>(0) = -(Ge + Ga + Gb);
-  g.segment<3>(3) = Ge;
-  g.segment<3>(6) = Ga;
-  g.segment<3>(9) = Gb;
+// x1 moves only e, x2 only a, x3 only b, and x0 moves all three with a minus sign. Per vertex
+// (x0, x1, x2, x3); meaningless for a degenerate lane, whose gradient is zero (see scaled_angle_gradients).
+template <class T>
+std::array<V3<T>, 4> angle_gradient_parts(const HingeFrame<T>& f) {
+  const T len2 = f.len * f.len;
+  const V3<T> Ga = (-f.len / f.n1_sq) * f.n1;  // F(e, a)
+  const V3<T> Gb = (-f.len / f.n2_sq) * f.n2;  // -F(e, b), F's two negations cancelled exactly
+  const T alpha1 = dot(f.a, f.e) / len2, alpha2 = dot(f.b, f.e) / len2;
+  const T minus_alpha1 = -alpha1;
+  const V3<T> Ge = minus_alpha1 * Ga - alpha2 * Gb;
+  return {-((Ge + Ga) + Gb), Ge, Ga, Gb};
+}
+
+// out[l] = factor * dtheta/dx of lane l < m: the gradient of an energy whose derivative in theta is
+// factor. A degenerate lane gives factor * 0 (as an exact zero angle gradient scaled by factor would).
+template <class T>
+void scaled_angle_gradients(const HingeFrame<T>& f, const T& factor, int m, Vec<12>* out) {
+  const std::array<V3<T>, 4> parts = angle_gradient_parts(f);
+  for (int k = 0; k < 4; ++k) {
+    const V3<T> scaled = factor * parts[static_cast<size_t>(k)];
+    for (int l = 0; l < m; ++l) {
+      const V3<double> p = lane(scaled, l);
+      out[l].segment<3>(3 * k) << p.x, p.y, p.z;
+    }
+  }
+  for (int l = 0; l < m; ++l)
+    if (degenerate(f, l)) out[l].setConstant(lane(factor, l) * 0.0);
+}
+
+Vec<12> angle_gradient_of(const HingeFrame<double>& f) {
+  Vec<12> g;
+  scaled_angle_gradients(f, 1.0, 1, &g);
   return g;
 }
 
@@ -99,18 +153,19 @@ Vec<12> angle_gradient_of(const HingeFrame& f) {
 //        = -F(e,a) dalpha1^T - alpha1 dF/de(e,a) + F(e,b) dalpha2^T + alpha2 dF/de(e,b).
 // Then H_x = J^T Hy J for the constant map y = J x (e = x1 - x0, a = x2 - x0, b = x3 - x0):
 // block (p, q) for p, q >= 1 is Hy[p-1][q-1]; row/column 0 collects minus the sums.
-Mat<12> angle_hessian_of(const HingeFrame& f) {
+Mat<12> angle_hessian_of(const HingeFrame<double>& frame) {
   Mat<12> H = Mat<12>::Zero();
-  if (f.degenerate) return H;
-  const double len2 = f.len * f.len;
+  if (degenerate(frame, 0)) return H;
+  const double len = frame.len, len2 = len * len;
+  const Vec3 e = to_eigen(frame.e), a = to_eigen(frame.a), b = to_eigen(frame.b);
 
-  const Vec3 Na = f.n1, Nb = -f.n2;  // e x a, e x b
-  const Vec3 Fa = wing_gradient(f.len, Na);
-  const Vec3 Fb = wing_gradient(f.len, Nb);
+  const Vec3 Na = to_eigen(frame.n1), Nb = -to_eigen(frame.n2);  // e x a, e x b
+  const Vec3 Fa = wing_gradient(len, Na);
+  const Vec3 Fb = wing_gradient(len, Nb);
   Mat3 Fa_c, Fa_e, Fb_c, Fb_e;
-  wing_derivatives(f.e, f.len, f.a, Na, Fa_c, Fa_e);
-  wing_derivatives(f.e, f.len, f.b, Nb, Fb_c, Fb_e);
-  const double alpha1 = f.a.dot(f.e) / len2, alpha2 = f.b.dot(f.e) / len2;
+  wing_derivatives(e, len, a, Na, Fa_c, Fa_e);
+  wing_derivatives(e, len, b, Nb, Fb_c, Fb_e);
+  const double alpha1 = a.dot(e) / len2, alpha2 = b.dot(e) / len2;
 
   Mat3 Hy[3][3];
   Hy[1][1] = Fa_c;
@@ -120,8 +175,8 @@ Mat<12> angle_hessian_of(const HingeFrame& f) {
   Hy[2][0] = -Fb_e;
   Hy[0][1] = Fa_e.transpose();
   Hy[0][2] = -Fb_e.transpose();
-  Hy[0][0] = -Fa * alpha_gradient(f.e, len2, f.a).transpose() - alpha1 * Fa_e +
-             Fb * alpha_gradient(f.e, len2, f.b).transpose() + alpha2 * Fb_e;
+  Hy[0][0] = -Fa * alpha_gradient(e, len2, a).transpose() - alpha1 * Fa_e +
+             Fb * alpha_gradient(e, len2, b).transpose() + alpha2 * Fb_e;
 
   Mat3 row_sum[3], total = Mat3::Zero();  // row_sum[j] = sum_i Hy[i][j]
   for (int j = 0; j < 3; ++j) {
@@ -139,25 +194,25 @@ Mat<12> angle_hessian_of(const HingeFrame& f) {
   return 0.5 * (H + H.transpose());
 }
 
-// The bending energy and its gradient from the hinge's angle theta (and, for the gradient, its frame).
+// The bending energy from the hinge's angle theta, and its derivative in theta.
 double energy_of(double theta, const HingeRest& rest, double k) {
   const double d = theta - rest.theta_bar;
   return k * rest.weight * d * d;
 }
-Vec<12> gradient_of(const HingeFrame& f, double theta, const HingeRest& rest, double k) {
-  return (2.0 * k * rest.weight * (theta - rest.theta_bar)) * angle_gradient_of(f);
+double energy_slope(double theta, const HingeRest& rest, double k) {
+  return 2.0 * k * rest.weight * (theta - rest.theta_bar);
 }
 
 }  // namespace
 
-double dihedral_angle(const Vec<12>& x) { return angle_of(HingeFrame(x)); }
-Vec<12> dihedral_angle_gradient(const Vec<12>& x) { return angle_gradient_of(HingeFrame(x)); }
-Mat<12> dihedral_angle_hessian(const Vec<12>& x) { return angle_hessian_of(HingeFrame(x)); }
+double dihedral_angle(const Vec<12>& x) { return angle_of(hinge_frame(x)); }
+Vec<12> dihedral_angle_gradient(const Vec<12>& x) { return angle_gradient_of(hinge_frame(x)); }
+Mat<12> dihedral_angle_hessian(const Vec<12>& x) { return angle_hessian_of(hinge_frame(x)); }
 
 HingeRest hinge_rest(const Vec<12>& X) {
-  const HingeFrame f(X);
+  const HingeFrame<double> f = hinge_frame(X);
   // |n_i| = 2 A_i, so Abar1 + Abar2 = (|n1| + |n2|) / 2.
-  const double area_sum = 0.5 * (f.n1.norm() + f.n2.norm());
+  const double area_sum = 0.5 * (to_eigen(f.n1).norm() + to_eigen(f.n2).norm());
   return HingeRest{angle_of(f), f.len * f.len / area_sum};
 }
 
@@ -166,14 +221,16 @@ double hinge_bending_energy(const Vec<12>& x, const HingeRest& rest, double k) {
 }
 
 Vec<12> hinge_bending_gradient(const Vec<12>& x, const HingeRest& rest, double k) {
-  const HingeFrame f(x);
-  return gradient_of(f, angle_of(f), rest, k);
+  const HingeFrame<double> f = hinge_frame(x);
+  Vec<12> g;
+  scaled_angle_gradients(f, energy_slope(angle_of(f), rest, k), 1, &g);
+  return g;
 }
 
 // d^2 E = 2 k w (grad theta grad theta^T + (theta - theta_bar) hess theta).
 Mat<12> hinge_bending_hessian(const Vec<12>& x, const HingeRest& rest, double k) {
-  const HingeFrame f(x);
-  if (f.degenerate) return Mat<12>::Zero();
+  const HingeFrame<double> f = hinge_frame(x);
+  if (degenerate(f, 0)) return Mat<12>::Zero();
   const double d = angle_of(f) - rest.theta_bar;
   const Vec<12> g = angle_gradient_of(f);
   return (2.0 * k * rest.weight) * (g * g.transpose() + d * angle_hessian_of(f));
@@ -197,7 +254,7 @@ HingeBending::HingeBending(const std::vector<Hinge>& hinges, const Positions& re
       X.segment<3>(3 * a) = rest.row(v).transpose();
     }
     const HingeRest r = hinge_rest(X);
-    if (HingeFrame(X).degenerate || !std::isfinite(r.weight))
+    if (degenerate(hinge_frame(X), 0) || !std::isfinite(r.weight))
       throw std::invalid_argument("HingeBending: hinge " + std::to_string(i) +
                                   " has a degenerate rest triangle");
     rest_.push_back(r);
@@ -212,17 +269,22 @@ Vec<12> HingeBending::gather(const Eigen::VectorXd& x, const Hinge& h) const {
 }
 
 // The three loops run on every element thread with thread-count-independent results
-// (physics/element_loops.h).
+// (physics/element_loops.h); value and gradient take two hinges per pass (physics/lanes.h), with
+// the bits of the one-hinge functions above (an odd last hinge fills both lanes).
 // value() keeps each hinge's angle for a gradient at the same x (util/state_key.h), and its sum for
 // a second value() there (a frame's statistics ask at the state Newton accepted last).
 double HingeBending::value(const Eigen::VectorXd& x) const {
   if (angles_key_.matches(x)) return total_;
   angles_key_.clear();
   angles_.resize(hinges_.size());
-  total_ = sum_element_energies(static_cast<int>(hinges_.size()), [&](int i) {
-    const double theta = angle_of(HingeFrame(gather(x, hinges_[i])));
-    angles_[static_cast<size_t>(i)] = theta;
-    return energy_of(theta, rest_[i], k_);
+  total_ = sum_element_energy_pairs(static_cast<int>(hinges_.size()), [&](int i, int m, double* out) {
+    const HingeFrame<Lanes> f = hinge_frame_pair(x, hinges_[i], hinges_[i + m - 1]);
+    const Lanes sine = sine_part(f), cosine = cosine_part(f);
+    for (int l = 0; l < m; ++l) {
+      const double theta = angle_of(f, sine, cosine, l);
+      angles_[static_cast<size_t>(i + l)] = theta;
+      out[l] = energy_of(theta, rest_[i + l], k_);
+    }
   });
   angles_key_.set(x);
   return total_;
@@ -230,11 +292,20 @@ double HingeBending::value(const Eigen::VectorXd& x) const {
 
 void HingeBending::add_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& grad) const {
   const bool reuse = angles_key_.matches(x);
-  add_element_gradients<4>(
+  add_element_gradient_pairs<4>(
       static_cast<int>(hinges_.size()), [&](int i) { return hinges_[i].v; },
-      [&](int i) {
-        const HingeFrame f(gather(x, hinges_[i]));
-        return gradient_of(f, reuse ? angles_[static_cast<size_t>(i)] : angle_of(f), rest_[i], k_);
+      [&](int i, int m, Vec<12>* out) {
+        const HingeFrame<Lanes> f = hinge_frame_pair(x, hinges_[i], hinges_[i + m - 1]);
+        Lanes sine{}, cosine{}, slope{};
+        if (!reuse) {
+          sine = sine_part(f);
+          cosine = cosine_part(f);
+        }
+        for (int l = 0; l < m; ++l) {
+          const double theta = reuse ? angles_[static_cast<size_t>(i + l)] : angle_of(f, sine, cosine, l);
+          slope[l] = energy_slope(theta, rest_[i + l], k_);
+        }
+        scaled_angle_gradients(f, slope, m, out);
       },
       scatter_, grad);
 }

@@ -64,6 +64,20 @@ void add_element_gradients(int count, const Verts& verts, const Gradient& gradie
   }
 }
 
+// grad += the element gradients g, per vertex on every thread: each vertex sums its elements'
+// slots in element order (`plan` built for these elements), the bits of a serial scatter.
+template <int N>
+void scatter_with_plan(const std::vector<Eigen::Matrix<double, 3 * N, 1>>& g, const GradientScatterPlan& plan,
+                       Eigen::VectorXd& grad) {
+  parallel_for_index(plan.vertices(), [&](int k) {
+    auto out = grad.template segment<3>(3 * plan.vertex(k));
+    for (int i = plan.slot_begin(k); i < plan.slot_begin(k + 1); ++i) {
+      const int s = plan.slot(i);
+      out += g[static_cast<size_t>(s / N)].template segment<3>(3 * (s % N));
+    }
+  });
+}
+
 // add_element_gradients with the scatter run per vertex on every thread (same bits as the serial
 // scatter; on one thread the serial scatter itself, which takes fewer instructions). `plan` must
 // have been built for these `count` elements and `verts` (throws std::logic_error when its element
@@ -78,14 +92,55 @@ void add_element_gradients(int count, const Verts& verts, const Gradient& gradie
     add_element_gradients<N>(count, verts, gradient, grad);
     return;
   }
-  const auto g = element_gradients<N>(count, gradient);
-  parallel_for_index(plan.vertices(), [&](int k) {
-    auto out = grad.template segment<3>(3 * plan.vertex(k));
-    for (int i = plan.slot_begin(k); i < plan.slot_begin(k + 1); ++i) {
-      const int s = plan.slot(i);
-      out += g[static_cast<size_t>(s / N)].template segment<3>(3 * (s % N));
+  scatter_with_plan<N>(element_gradients<N>(count, gradient), plan, grad);
+}
+
+// Energies evaluated two elements per pass (physics/lanes.h). pair(e, m, out) computes elements
+// e .. e + m - 1 into out[0 .. m), where m = 2, or 1 for the last element of an odd count; it is
+// called for e = 0, 2, 4, ... on every element thread and writes only its elements' outputs.
+
+// Sum over the elements of their energies (J), added in element order.
+template <class Pair>
+double sum_element_energy_pairs(int count, const Pair& pair) {
+  const auto size = [count](int e) { return e + 1 < count ? 2 : 1; };
+  double total = 0.0;
+  if (effective_element_threads() == 1) {
+    for (int e = 0; e < count; e += 2) {
+      double out[2];
+      pair(e, size(e), out);
+      for (int l = 0; l < size(e); ++l) total += out[l];
     }
-  });
+    return total;
+  }
+  std::vector<double> values(static_cast<size_t>(count));
+  parallel_for_index((count + 1) / 2, [&](int p) { pair(2 * p, size(2 * p), values.data() + 2 * p); });
+  for (double v : values) total += v;
+  return total;
+}
+
+// grad += the elements' gradients (J/m), scattered in element order as add_element_gradients does.
+template <int N, class Verts, class Pair>
+void add_element_gradient_pairs(int count, const Verts& verts, const Pair& pair, const GradientScatterPlan& plan,
+                                Eigen::VectorXd& grad) {
+  using Gradient = Eigen::Matrix<double, 3 * N, 1>;
+  if (plan.elements() != count)
+    throw std::logic_error("add_element_gradient_pairs: a scatter plan built for " + std::to_string(plan.elements()) +
+                           " elements, used for " + std::to_string(count));
+  const auto size = [count](int e) { return e + 1 < count ? 2 : 1; };
+  if (effective_element_threads() == 1) {
+    for (int e = 0; e < count; e += 2) {
+      Gradient out[2];
+      pair(e, size(e), out);
+      for (int l = 0; l < size(e); ++l) {
+        const std::array<int, N> v = verts(e + l);
+        for (int a = 0; a < N; ++a) grad.template segment<3>(3 * v[a]) += out[l].template segment<3>(3 * a);
+      }
+    }
+    return;
+  }
+  std::vector<Gradient> g(static_cast<size_t>(count));
+  parallel_for_index((count + 1) / 2, [&](int p) { pair(2 * p, size(2 * p), g.data() + 2 * p); });
+  scatter_with_plan<N>(g, plan, grad);
 }
 
 // Adds the element Hessians hessian(e) (3N x 3N, already projected, J/m^2) to `assembly`, the same

@@ -13,6 +13,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <random>
 #include <utility>
@@ -23,6 +24,7 @@
 #include "support/finite_difference.h"
 #include "geometry/shapes.h"
 #include "support/term_eval.h"
+#include "util/parallel.h"
 
 namespace pd {
 namespace {
@@ -211,6 +213,13 @@ TriMesh grid(int nu, int nv, double du, double dv) {
   return m;
 }
 
+// The hinge's four vertices (x_v0, x_v1, x_v2, x_v3) of the stacked positions x.
+Vec<12> hinge_positions(const Hinge& h, const Eigen::VectorXd& x) {
+  Vec<12> xe;
+  for (int a = 0; a < 4; ++a) xe.segment<3>(3 * a) = x.segment<3>(3 * h.v[a]);
+  return xe;
+}
+
 TEST(DihedralAngle, OctahedronWithOutwardNormalsHasConvexAnglesEverywhere) {
   // Every edge of the regular octahedron turns the normal by pi - acos(-1/3) = acos(1/3), convexly.
   Positions V(6, 3);
@@ -285,11 +294,7 @@ TEST(HingeBending, TermAssemblyMatchesElementSumsAndFiniteDifferences) {
   Eigen::VectorXd g_sum = Eigen::VectorXd::Zero(n);
   Eigen::MatrixXd H_sum = Eigen::MatrixXd::Zero(n, n);
   for (const Hinge& h : hinges) {
-    Vec<12> X, xe;
-    for (int a = 0; a < 4; ++a) {
-      X.segment<3>(3 * a) = m.V.row(h.v[a]).transpose();
-      xe.segment<3>(3 * a) = x.segment<3>(3 * h.v[a]);
-    }
+    const Vec<12> X = hinge_positions(h, stacked(m.V)), xe = hinge_positions(h, x);
     const HingeRest r = hinge_rest(X);
     const double k = hinge_stiffness(D);
     e_sum += hinge_bending_energy(xe, r, k);
@@ -463,6 +468,50 @@ TEST(HingeBending, StiffnessIsHalfTheBendingRigidityAndBadHingesThrow) {
 
 // The element loops run on several threads (physics/element_loops.h); the value, the gradient and
 // the assembled projected Hessian must be the same bytes for every thread count.
+// The term evaluates two hinges per pass (physics/lanes.h); each lane must give the bits of the
+// one-hinge functions: an odd count (the last hinge alone), a hinge collapsed in either lane, the
+// gradient after a value (angles reused) and without, on one and two threads.
+TEST(HingeBending, PairedValueAndGradientGiveTheOneHingeBitsWithAnOddCountAndCollapsedHinges) {
+  TriMesh m = grid(2, 2, 0.5, 0.5);
+  for (int i = 0; i < m.num_vertices(); ++i) m.V(i, 2) = 0.3 * m.V(i, 0) * m.V(i, 0) - 0.2 * m.V(i, 1);
+  std::vector<Hinge> hinges = hinges_of(m.F);
+  hinges.resize(7);
+  const double k = hinge_stiffness(0.05);
+  Eigen::VectorXd x = stacked(m.V) + 0.05 * test::wavy(3 * m.num_vertices(), 0.61, 0.3);
+  for (int h : {2, 5}) {  // wing 1 of hinges 2 and 5 (lanes 0 and 1) flattened onto its edge
+    const Hinge& hg = hinges[static_cast<size_t>(h)];
+    x.segment<3>(3 * hg.v[2]) = 0.5 * (x.segment<3>(3 * hg.v[0]) + x.segment<3>(3 * hg.v[1]));
+  }
+  double energy = 0.0;
+  Eigen::VectorXd gradient = Eigen::VectorXd::Zero(x.size());
+  int collapsed = 0;
+  for (const Hinge& h : hinges) {
+    const Vec<12> X = hinge_positions(h, stacked(m.V)), xe = hinge_positions(h, x);
+    const HingeRest rest = hinge_rest(X);
+    energy += hinge_bending_energy(xe, rest, k);
+    const Vec<12> g = hinge_bending_gradient(xe, rest, k);
+    collapsed += dihedral_angle(xe) == 0.0 && g.isZero(0.0);
+    for (int a = 0; a < 4; ++a) gradient.segment<3>(3 * h.v[a]) += g.segment<3>(3 * a);
+  }
+  ASSERT_GE(collapsed, 2);
+  long compared = 0;
+  for (int threads : {1, 2}) {
+    set_element_threads(threads);
+    for (bool after_value : {true, false}) {
+      const HingeBending term(hinges, m.V, 0.05);
+      if (after_value) {
+        EXPECT_EQ(term.value(x), energy);
+      }
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(x.size());
+      term.add_gradient(x, g);
+      for (Eigen::Index i = 0; i < g.size(); ++i, ++compared)
+        EXPECT_EQ(std::memcmp(&g[i], &gradient[i], sizeof(double)), 0) << "entry " << i << ", " << threads << " threads";
+    }
+  }
+  set_element_threads(0);
+  EXPECT_EQ(compared, 4 * x.size());
+}
+
 TEST(HingeBending, ValueGradientAndHessianAreBitIdenticalOnOneTwoAndThreeThreads) {
   const TriMesh sheet = make_rectangle(1.0, 1.0, 30, 30);
   const std::vector<Hinge> hinges = hinges_of(sheet.F);
