@@ -29,6 +29,10 @@ using Lanes = double __attribute__((vector_size(16)));
 inline double lane(double v, int) { return v; }
 inline double lane(Lanes v, int l) { return v[l]; }
 
+// Sets lane l of v to x.
+inline void set_lane(double& v, int, double x) { v = x; }
+inline void set_lane(Lanes& v, int l, double x) { v[l] = x; }
+
 inline double sqrt_of(double v) { return std::sqrt(v); }
 inline Lanes sqrt_of(Lanes v) { return Lanes{std::sqrt(v[0]), std::sqrt(v[1])}; }
 

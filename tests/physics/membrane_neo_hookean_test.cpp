@@ -331,6 +331,55 @@ TEST(NeoHookeanMembrane, TermRejectsCollapsedTriangleAndBadInput) {
 
 // The element loops run on several threads (physics/element_loops.h); the value, the gradient and
 // the assembled projected Hessian must be the same bytes for every thread count.
+// value() takes two faces per pass (physics/lanes.h); each lane must give the bits of the one-face
+// functions, in each branch of ln det M and of s - log1p(s) and with the pair's lanes in different
+// branches: an odd count (the last face alone), a stretch of 1e-4 (series in both lanes), one vertex
+// pulled away (large and small strains side by side), a triangle squashed to less than half its area
+// (s < -1/2) and a collapsed one; the gradient after that value (stresses reused) and without, on one
+// and two threads.
+TEST(NeoHookeanMembrane, PairedValueAndGradientGiveTheOneFaceBitsInEveryBranch) {
+  const TriMesh sheet = make_rectangle(1.0, 0.8, 3, 2);
+  const Faces faces = sheet.F.topRows(11);
+  const Eigen::VectorXd rest = stacked(sheet.V);
+  Eigen::VectorXd small = rest;
+  for (Eigen::Index i = 0; i < small.size(); i += 3) small[i] *= 1.0 + 1e-4;
+  Eigen::VectorXd pulled = small;
+  pulled.segment<3>(3 * 5) += Vec3(0.3, -0.2, 0.25);
+  Eigen::VectorXd squashed = pulled;
+  {  // face 0's third vertex 80 % of the way to the middle of its first edge: a fifth of its area
+    const int a = faces(0, 0), b = faces(0, 1), c = faces(0, 2);
+    squashed.segment<3>(3 * c) = 0.4 * (squashed.segment<3>(3 * a) + squashed.segment<3>(3 * b)) + 0.2 * squashed.segment<3>(3 * c);
+  }
+  squashed.segment<3>(3 * 10) = squashed.segment<3>(3 * 9);  // the faces on edge 9-10 collapse
+  const auto one_face_sums = [&](const Eigen::VectorXd& x, double& energy, Eigen::VectorXd& gradient, int& branches) {
+    energy = 0.0;
+    gradient = Eigen::VectorXd::Zero(x.size());
+    for (int f = 0; f < faces.rows(); ++f) {
+      Vec<9> xe, Xe;
+      for (int k = 0; k < 3; ++k) {
+        xe.segment<3>(3 * k) = x.segment<3>(3 * faces(f, k));
+        Xe.segment<3>(3 * k) = rest.segment<3>(3 * faces(f, k));
+      }
+      const double det_M = std::pow(area_of(xe) / area_of(Xe), 2);  // bits: series, direct, s < -1/2, collapsed
+      branches |= std::abs(det_M - 1.0) < 1e-2 ? 1 : det_M < 1e-18 ? 8 : det_M < 0.5 ? 4 : 2;
+      energy += neo_hookean_membrane_energy(xe, rest_of(Xe), kCloth);
+      const Vec<9> g = neo_hookean_membrane_gradient(xe, rest_of(Xe), kCloth);
+      for (int k = 0; k < 3; ++k) gradient.segment<3>(3 * faces(f, k)) += g.segment<3>(3 * k);
+    }
+  };
+  int branches = 0;
+  long compared = 0;
+  for (const Eigen::VectorXd& x : {small, pulled, squashed}) {
+    double energy = 0.0;
+    Eigen::VectorXd gradient;
+    one_face_sums(x, energy, gradient, branches);
+    compared += test::expect_value_and_gradient_bits(
+        [&] { return std::make_unique<NeoHookeanMembrane>(faces, sheet.V, kCloth); }, x, energy, gradient);
+  }
+  EXPECT_EQ(branches, 1 | 2 | 4 | 8);  // every branch taken by some face
+  EXPECT_EQ(compared, 3 * (4 * rest.size() + 2));
+}
+
 TEST(NeoHookeanMembrane, ValueGradientAndHessianAreBitIdenticalOnOneTwoAndThreeThreads) {
   const TriMesh sheet = make_rectangle(1.0, 1.0, 30, 30);  // 1800 faces: the parallel path
   const NeoHookeanMembrane membrane(sheet.F, sheet.V, kCloth);

@@ -1,5 +1,6 @@
 #include "support/term_eval.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -85,6 +86,30 @@ void expect_reuse_after_value_is_fresh(const EnergyTerm& term, const EnergyTerm&
     EXPECT_TRUE(same_value(term.value(*at), at == &x ? value_x : value_y)) << "second value at " << name;
     EXPECT_TRUE(same_value(term.value(at == &x ? y : x), at == &x ? value_y : value_x)) << "value after one at " << name;
   }
+}
+
+long expect_value_and_gradient_bits(const std::function<std::unique_ptr<EnergyTerm>()>& make, const Eigen::VectorXd& x,
+                                    double energy, const Eigen::VectorXd& gradient) {
+  const int saved = element_threads();
+  long compared = 0;
+  for (int threads : {1, 2}) {
+    set_element_threads(threads);
+    for (bool after_value : {true, false}) {
+      const std::unique_ptr<EnergyTerm> term = make();
+      if (after_value) {
+        const double value = term->value(x);
+        EXPECT_EQ(std::memcmp(&value, &energy, sizeof(double)), 0) << value << " vs " << energy << ", " << threads << " threads";
+        ++compared;
+      }
+      const Eigen::VectorXd g = term_gradient(*term, x);
+      EXPECT_EQ(g.size(), gradient.size());
+      for (Eigen::Index i = 0; i < std::min(g.size(), gradient.size()); ++i, ++compared)
+        EXPECT_EQ(std::memcmp(&g[i], &gradient[i], sizeof(double)), 0)
+            << "gradient entry " << i << (after_value ? " after a value, " : ", ") << threads << " threads";
+    }
+  }
+  set_element_threads(saved);
+  return compared;
 }
 
 long expect_same_bits(const TermBits& a, const TermBits& b) {

@@ -1,5 +1,7 @@
 #pragma once
 // Dense evaluations of an EnergyTerm for tests on small meshes.
+#include <functional>
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
@@ -54,5 +56,11 @@ long expect_same_bits(const TermBits& a, const TermBits& b);
 // so stale reuse cannot pass.
 void expect_reuse_after_value_is_fresh(const EnergyTerm& term, const EnergyTerm& twin, const Eigen::VectorXd& x,
                                        const Eigen::VectorXd& y);
+
+// Expects terms built by make() to give `energy` and `gradient` at x bit for bit: the value, the
+// gradient after it (per-element results reused) and the gradient of a term that evaluated no value,
+// each on one and two element threads. Returns the doubles compared (4 gradients and 2 values).
+long expect_value_and_gradient_bits(const std::function<std::unique_ptr<EnergyTerm>()>& make, const Eigen::VectorXd& x,
+                                    double energy, const Eigen::VectorXd& gradient);
 
 }  // namespace pd::test
