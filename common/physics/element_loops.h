@@ -43,25 +43,23 @@ std::vector<Eigen::Matrix<double, 3 * N, 1>> element_gradients(int count, const 
   return g;
 }
 
+// grad += one element's gradient g on its vertices v.
+template <int N>
+void add_to_vertices(const std::array<int, N>& v, const Eigen::Matrix<double, 3 * N, 1>& g, Eigen::VectorXd& grad) {
+  for (int a = 0; a < N; ++a) grad.template segment<3>(3 * v[a]) += g.template segment<3>(3 * a);
+}
+
 // grad += the element gradients gradient(e) (Eigen::Matrix<double, 3N, 1>, J/m), scattered in
-// element order.
+// element order. On one thread each is added as it comes: the same additions in the same order,
+// without the 3N-doubles-per-element buffer (1.7 MB for flag-large's hinges) the threads write into.
 template <int N, class Verts, class Gradient>
 void add_element_gradients(int count, const Verts& verts, const Gradient& gradient, Eigen::VectorXd& grad) {
   if (effective_element_threads() == 1) {
-    // The same additions in the same order, without the 3N-doubles-per-element buffer (1.7 MB for
-    // flag-large's hinges) that the threads need to write their slots into.
-    for (int e = 0; e < count; ++e) {
-      const Eigen::Matrix<double, 3 * N, 1> ge = gradient(e);
-      const std::array<int, N> v = verts(e);
-      for (int a = 0; a < N; ++a) grad.template segment<3>(3 * v[a]) += ge.template segment<3>(3 * a);
-    }
+    for (int e = 0; e < count; ++e) add_to_vertices<N>(verts(e), gradient(e), grad);
     return;
   }
   const auto g = element_gradients<N>(count, gradient);
-  for (int e = 0; e < count; ++e) {
-    const std::array<int, N> v = verts(e);
-    for (int a = 0; a < N; ++a) grad.template segment<3>(3 * v[a]) += g[static_cast<size_t>(e)].template segment<3>(3 * a);
-  }
+  for (int e = 0; e < count; ++e) add_to_vertices<N>(verts(e), g[static_cast<size_t>(e)], grad);
 }
 
 // grad += the element gradients g, per vertex on every thread: each vertex sums its elements'
@@ -131,10 +129,7 @@ void add_element_gradient_pairs(int count, const Verts& verts, const Pair& pair,
     for (int e = 0; e < count; e += 2) {
       Gradient out[2];
       pair(e, size(e), out);
-      for (int l = 0; l < size(e); ++l) {
-        const std::array<int, N> v = verts(e + l);
-        for (int a = 0; a < N; ++a) grad.template segment<3>(3 * v[a]) += out[l].template segment<3>(3 * a);
-      }
+      for (int l = 0; l < size(e); ++l) add_to_vertices<N>(verts(e + l), out[l], grad);
     }
     return;
   }
