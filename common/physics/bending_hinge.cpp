@@ -47,13 +47,13 @@ HingeFrame<double> hinge_frame(const Vec<12>& x) {
   return hinge_frame(at(0), at(1), at(2), at(3));
 }
 
-// Hinges e0 (lane 0) and e1 (lane 1) of the stacked positions x.
+// Hinge h0 in lane 0 and hinge h1 in lane 1, from the stacked positions x.
 HingeFrame<Lanes> hinge_frame_pair(const Eigen::VectorXd& x, const Hinge& h0, const Hinge& h1) {
   const auto at = [&](int k) { return vertex_pair(x, h0.v[k], h1.v[k]); };
   return hinge_frame(at(0), at(1), at(2), at(3));
 }
 
-// Lane l of a pair's frame, and a double frame's only lane.
+// Whether a hinge's wings are too thin to have normals (see the header), from its frame's lane l.
 bool degenerate(double len, double n1_sq, double n2_sq) {
   // |n| > tol compared squared (no square roots); tol^2 underflows only for |e| < 1e-70 m.
   const double tol = kDegenerateRatio * len * len, tol2 = tol * tol;
@@ -112,7 +112,8 @@ double angle_of(const HingeFrame<double>& f) { return angle_of(f, sine_part(f), 
 
 // Relative-coordinate gradient (G_e, G_a, G_b) mapped back to the vertices:
 // x1 moves only e, x2 only a, x3 only b, and x0 moves all three with a minus sign. Per vertex
-// (x0, x1, x2, x3); meaningless for a degenerate lane, whose gradient is zero (see scaled_angle_gradients).
+// (x0, x1, x2, x3); meaningless for a degenerate lane, whose gradient is zero
+// (scaled_angle_gradients sees to it).
 template <class T>
 std::array<V3<T>, 4> angle_gradient_parts(const HingeFrame<T>& f) {
   const T len2 = f.len * f.len;
