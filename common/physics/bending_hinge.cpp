@@ -43,8 +43,7 @@ HingeFrame<T> hinge_frame(const V3<T>& x0, const V3<T>& x1, const V3<T>& x2, con
 }
 
 HingeFrame<double> hinge_frame(const Vec<12>& x) {
-  const auto at = [&x](int k) { return V3<double>{x[3 * k], x[3 * k + 1], x[3 * k + 2]}; };
-  return hinge_frame(at(0), at(1), at(2), at(3));
+  return hinge_frame(vertex_at(x, 0), vertex_at(x, 1), vertex_at(x, 2), vertex_at(x, 3));
 }
 
 // Hinge h0 in lane 0 and hinge h1 in lane 1, from the stacked positions x.

@@ -15,7 +15,6 @@
 // keep Eigen's order for Vector3d (cross as MatrixBase::cross, dot and squaredNorm as (x + y) + z),
 // so code moved here from Eigen keeps its bits too. Functions with no lane form (sqrt, atan2, log1p)
 // run per lane on doubles.
-#include <array>
 #include <cmath>
 
 #include <Eigen/Core>
@@ -67,8 +66,12 @@ T dot(const V3<T>& a, const V3<T>& b) {
   return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
-// Vertex v of the stacked positions x (x[3v + k], m), as a V3<double>.
-inline V3<double> vertex(const Eigen::VectorXd& x, int v) { return {x[3 * v], x[3 * v + 1], x[3 * v + 2]}; }
+// Vertex v of stacked positions x (x[3v + k], m: the whole state or one element's vector), as a
+// V3<double>.
+template <class Vector>
+V3<double> vertex_at(const Vector& x, int v) {
+  return {x[3 * v], x[3 * v + 1], x[3 * v + 2]};
+}
 
 // Vertex v0 in lane 0 and v1 in lane 1.
 inline V3<Lanes> vertex_pair(const Eigen::VectorXd& x, int v0, int v1) {

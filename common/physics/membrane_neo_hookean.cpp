@@ -110,9 +110,8 @@ bool log_det_M(Metric<T>& m, const Rest<T>& rest, int l) {
 
 // The metric of the triangle with stacked vertices x (x0, x1, x2); false where it has none.
 bool deformed_metric(const Vec<9>& x, const MembraneRest& rest, Metric<double>& m) {
-  const auto at = [&x](int k) { return V3<double>{x[3 * k], x[3 * k + 1], x[3 * k + 2]}; };
   const Rest<double> r = rest_of(rest);
-  m = metric_of(at(1) - at(0), at(2) - at(0), r);
+  m = metric_of(vertex_at(x, 1) - vertex_at(x, 0), vertex_at(x, 2) - vertex_at(x, 0), r);
   return log_det_M(m, r, 0);
 }
 
