@@ -155,20 +155,23 @@ bool Scheduler::worker_busy(const std::string& name) const {
   return false;
 }
 
-void Scheduler::send_worker(const std::string& identity, const protocol::Parts& parts) {
+bool Scheduler::send_worker(const std::string& identity, const protocol::Parts& parts) {
   auto it = sessions_.find(identity);
   try {
     if (!farm::send_parts_to(workers_, identity, parts)) {
-      // Its queue is full: it has stopped reading. It is dropped at the next liveness check (its
-      // heartbeats stop being read as well), not now: the caller may still be using its session.
-      event("send_failed", 0, 0, it == sessions_.end() ? 0 : it->second.worker, "queue full, message dropped");
-      if (it != sessions_.end()) it->second.last_heard = Clock::time_point{};
-      return;
+      // Its queue is full: the message is dropped and the caller told. That is our own backlog, not
+      // the peer's silence: liveness is judged only by what the peer sends (a worker that stopped
+      // reading has stopped heartbeating too, and is lost by the liveness check). Frames of the level
+      // below are flow-controlled (kFeedWindow) and sent again from top_up_feed.
+      event("send_failed", 0, 0, it == sessions_.end() ? 0 : it->second.worker, "queue full, message dropped", false);
+      return false;
     }
     if (it != sessions_.end()) it->second.last_sent = Clock::now();
+    return true;
   } catch (const zmq::error_t& e) {
     // EHOSTUNREACH: the peer is gone; its session is dropped at the next liveness check.
     event("send_failed", 0, 0, it == sessions_.end() ? 0 : it->second.worker, e.what(), false);
+    return false;
   }
 }
 
@@ -237,7 +240,7 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
             (t.kind == protocol::TaskKind::hierarchy ? std::string("hierarchy") : "level " + std::to_string(t.level)) +
             " frames (" + std::to_string(t.first) + ", " + std::to_string(t.last) + "] to " +
             s.name + (a.start > t.first ? ", continuing from frame " + std::to_string(a.start) : ""));
-  if (t.kind == protocol::TaskKind::level && t.level >= 1) feed_stored_frames(identity, s, t);
+  top_up_feed(identity, s);
   return true;
 }
 
@@ -283,28 +286,36 @@ void Scheduler::attempt_failed(Session& s, const TaskRow& t, const std::string& 
   cancel_attempts_of_job(t.job, "job failed");
 }
 
-// Sends the running attempt every stored frame of the level below it will ask for.
-void Scheduler::feed_stored_frames(const std::string& identity, Session& s, const TaskRow& task) {
+void Scheduler::top_up_feed(const std::string& identity, Session& s) {
+  if (s.attempt == 0 || s.draining) return;
+  const TaskRow task = store_->task(s.task);
+  if (task.kind != protocol::TaskKind::level || task.level < 1) return;
   const std::optional<farm::FrameRange> range = farm::fed_frames(as_new_task(task));
-  if (!range) return;
   JobFile* f = files_.find(task.job);
-  for (int t : store_->stored_frames(task.job, range->level, range->first, range->last)) {
+  if (!range || !f) return;
+  // Step progress -> progress + 1 reads frames progress - 1 and progress of the level below, and
+  // nothing before them is asked for again: a continuation from frame 10 000 is not sent frames 0..9 998.
+  const int first = std::max(range->first, s.progress - 1);
+  const int last = std::min(range->last, s.progress + kFeedWindow);
+  if (last < first || std::distance(s.fed.lower_bound(first), s.fed.end()) == last - first + 1)
+    return;  // every frame of the window was sent already
+  for (int t : store_->stored_frames(task.job, range->level, first, last)) {
+    if (s.fed.count(t)) continue;
     protocol::BelowFrame b;
     b.attempt = s.attempt;
     b.task = task.id;
     b.level = range->level;
     b.frame = t;
     b.positions = as_vector(f->writer->read_frame(range->level, t));
-    send_worker(identity, protocol::encode(b));
+    if (!send_worker(identity, protocol::encode(b))) return;  // the rest on the next top-up, in order
     s.fed.insert(t);
   }
 }
 
 // A frame of (job, level) was stored: every running attempt of the job one level up that will ask
-// for it gets it now.
+// for it gets it now when it is within the attempt's window (kFeedWindow), later from top_up_feed.
 void Scheduler::feed_new_frame(int64_t job, int level, int frame) {
   JobFile* f = files_.find(job);
-  std::optional<std::string> bytes;
   protocol::BelowFrame b;
   for (auto& [identity, s] : sessions_) {
     if (s.attempt == 0 || s.job != job || s.draining || s.fed.count(frame)) continue;
@@ -312,13 +323,13 @@ void Scheduler::feed_new_frame(int64_t job, int level, int frame) {
     if (t.kind != protocol::TaskKind::level || t.level != level + 1) continue;
     const std::optional<farm::FrameRange> range = farm::fed_frames(as_new_task(t));
     if (!range || frame < range->first || frame > range->last) continue;
+    if (frame > s.progress + kFeedWindow) continue;  // outside its window: top_up_feed sends it later
     if (b.positions.empty()) b.positions = as_vector(f->writer->read_frame(level, frame));
     b.attempt = s.attempt;
     b.task = t.id;
     b.level = level;
     b.frame = frame;
-    send_worker(identity, protocol::encode(b));
-    s.fed.insert(frame);
+    if (send_worker(identity, protocol::encode(b))) s.fed.insert(frame);
   }
 }
 

@@ -42,6 +42,14 @@ double unix_now();
 
 constexpr int kLiveness = 3;
 
+// Flow control of the frames of the level below (BelowFrame): a running refinement attempt is sent
+// frames only up to kFeedWindow past the last frame it reported, so its frame reports are the
+// acknowledgements that open the window further. Without it an attempt assigned after thousands of
+// frames of the level below were stored got them all in one burst, past ZeroMQ's send high-water
+// mark (1 000 messages). 16 frames keep a worker from ever waiting for the window (it needs one new
+// frame per step and reports one per step) while bounding what is queued to 16 frames per worker.
+constexpr int kFeedWindow = 16;
+
 // A stored task's kind and range, as the task graph's functions (farm/task_graph.h) take them.
 NewTask as_new_task(const TaskRow& t);
 
@@ -55,7 +63,7 @@ struct Session {
   std::set<std::string> hierarchies;  // hashes this worker has (sent to it, or built by it)
   int64_t attempt = 0, task = 0, job = 0;  // the attempt it runs; 0 when idle
   bool draining = false;  // told to cancel; free once a heartbeat says it runs nothing
-  std::set<int> fed;      // frames of the level below sent for the running attempt
+  std::set<int> fed;      // frames of the level below sent (queued whole) for the running attempt
   int progress = 0;       // the last frame the running attempt reported (its first frame before any)
   std::string slurm_job;  // Hello.slurm_job: the Slurm job it runs as ("" when not a Slurm worker)
   std::string blas_kernel;  // Hello.blas_kernel
@@ -112,9 +120,14 @@ class Scheduler {
   void turn();  // one loop turn: receive, dispatch, preempt, heartbeats
   void dispatch();
   bool assign(const std::string& identity, Session& s, const Claim& claim);
-  void feed_stored_frames(const std::string& identity, Session& s, const TaskRow& task);
+  // Sends the running refinement attempt of s every stored frame of the level below it will ask for
+  // up to s.progress + kFeedWindow that it was not sent yet (on assignment, on each of its frame
+  // reports and heartbeats: a send refused by a full queue is tried again there).
+  void top_up_feed(const std::string& identity, Session& s);
   void feed_new_frame(int64_t job, int level, int frame);
-  void send_worker(const std::string& identity, const protocol::Parts& parts);
+  // False when the message was not queued: the peer's queue is full (the message is dropped; the
+  // peer is not blamed for it) or the peer is gone.
+  bool send_worker(const std::string& identity, const protocol::Parts& parts);
   void preempt_starved();
   void heartbeats_and_liveness();
   void lose(const std::string& identity, const std::string& why);

@@ -115,6 +115,7 @@ void Scheduler::on_report(const std::string& identity, protocol::WorkerHeartbeat
     s.draining = true;
   }
   store_->touch_worker(s.worker);
+  top_up_feed(identity, s);  // frames a full queue refused earlier
   if (m.ping != 0) send_worker(identity, protocol::encode(protocol::SchedulerHeartbeat{m.ping}));
 }
 
@@ -167,6 +168,7 @@ void Scheduler::on_report(const std::string& identity, protocol::FrameReport& m)
   data.center_of_mass = std::move(m.center_of_mass);
   data.kappa = kappa_of(data.stats);
   s->progress = std::max(s->progress, m.frame);
+  top_up_feed(identity, *s);  // the report acknowledges the frames below it: the window moves on
   if (const std::optional<FrameData> stored = store_->frame_data(t.job, {m.level, m.frame})) {
     // Solved again (a task restarted from its first frame): a stored frame is never changed. The
     // solve is deterministic, so the two agree; a difference is logged for a look.

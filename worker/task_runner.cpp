@@ -143,6 +143,9 @@ Eigen::VectorXd TaskRunner::wait_below(int t) {
   std::unique_lock<std::mutex> lock(mutex_);
   below_arrived_.wait(lock, [&] { return cancelled_ || below_.count(t) != 0; });
   if (cancelled_) throw Cancelled{};
+  // The solve asks for frames t and t - 1 of each step in increasing t (progressive/level_task.h):
+  // nothing before t - 1 is asked for again, so an attempt holds a window of frames, not its range.
+  below_.erase(below_.begin(), below_.lower_bound(t - 1));
   return below_.at(t);
 }
 
