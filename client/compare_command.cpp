@@ -1,7 +1,8 @@
 // pd compare: how far the levels of one or two frame files are from a reference level (PD figures
 // 18-19, and the speed-against-error plots): per frame and level the centre-of-mass deviation,
 // per-vertex distance on the reference mesh, Hausdorff distance between the simulated surfaces and
-// kinetic energy; with --seams, the seam jitter of a run with time subsets against the K = 1 run.
+// kinetic energy; with --seams, each seam's pop (its jolt against the run's own motion around it; with
+// OTHER against the K = 1 run FILE's pop) and the seam jitter of OTHER against FILE.
 // Printed as a summary per level (or one JSON object with --json) and written in full as CSV.
 // The measures are defined in progressive/error_measures.h and docs/progressive.md.
 #include <algorithm>
@@ -66,6 +67,7 @@ struct Measured {
   bool reaches_reference = false;      // vertex distance computable
   std::string vd_note;                 // why not (or which frames were skipped)
   std::vector<double> com, vd_mean, vd_p95, vd_max, hausdorff, accel_diff;
+  std::vector<double> second_diff;     // m(t), m per frame^2, by frame number 0..N (empty without --seams)
   std::vector<double> pooled_vd;       // every (vertex, frame) distance, for the summary
 };
 
@@ -189,7 +191,8 @@ void measure_all(std::vector<Measured>& all, std::vector<Source>& sources, std::
   }
 }
 
-// --seams "25,50" -> {25, 50}; each T must leave frames T - 1 and T + 1 (1 <= T <= last - 1).
+// --seams "0,25,50" -> {0, 25, 50}; each T must leave frame T + 1 (0 <= T <= last - 1). The jitter
+// takes the seams >= 1 (see all_seams); the pop takes them all.
 std::vector<int> parse_seams(const std::string& text, const std::string& file, int last_frame) {
   std::vector<int> out;
   std::size_t at = 0;
@@ -205,9 +208,9 @@ std::vector<int> parse_seams(const std::string& text, const std::string& file, i
     }
     if (item.empty() || used != item.size())
       throw InputError(file + ": --seams: '" + item + "' is not a frame number (expected T1,T2,...)");
-    if (t < 1 || t > last_frame - 1)
-      throw InputError(file + ": --seams: frame " + item + " is outside 1.." + std::to_string(last_frame - 1) +
-                       " (d(t) needs frames t - 1 and t + 1)");
+    if (t < 0 || t > last_frame - 1)
+      throw InputError(file + ": --seams: frame " + item + " is outside 0.." + std::to_string(last_frame - 1) +
+                       " (a seam T needs frame T + 1)");
     out.push_back(t);
     at = comma + 1;
   }
@@ -246,10 +249,21 @@ nlohmann::json seam_entry(Measured& k, const FrameReader& kr, const Measured& on
   return e;
 }
 
-// The seam_jitter array: every level of OTHER against the same level of FILE when their meshes match.
-nlohmann::json all_seams(std::vector<Measured>& all, std::vector<Source>& sources, const std::vector<int>& seams,
+// The seam_jitter array: every level of OTHER against the same level of FILE when their meshes match;
+// null with FILE alone. Seam 0 (the level's start) is left out: d(0) needs frame -1, and the first
+// subset is the K = 1 run's own task, so a seam 0 would only pull its zero d into the background.
+nlohmann::json all_seams(std::vector<Measured>& all, std::vector<Source>& sources, std::vector<int> seams,
                          std::vector<std::string>& notes) {
+  if (sources.size() < 2) {
+    notes.push_back("no OTHER: the jitter compares the run with subsets (OTHER) against FILE");
+    return nullptr;
+  }
+  if (std::find(seams.begin(), seams.end(), 0) != seams.end()) {
+    notes.push_back("seam 0 left out: the jitter takes seams 1..N-1 (d(0) is not defined)");
+    seams.erase(std::remove(seams.begin(), seams.end(), 0), seams.end());
+  }
   nlohmann::json out = nlohmann::json::array();
+  if (seams.empty()) return out;
   for (Measured& k : all) {
     if (k.source != 1) continue;
     const auto one = std::find_if(all.begin(), all.end(), [&](const Measured& m) {
@@ -263,6 +277,95 @@ nlohmann::json all_seams(std::vector<Measured>& all, std::vector<Source>& source
     } else {
       out.push_back(seam_entry(k, sources[1].reader, *one, sources[0].reader, seams));
     }
+  }
+  return out;
+}
+
+// m(t) (progressive/error_measures.h) of series s for t = 0..N, NaN where frames t - 1, t and t + 1
+// are not all stored; each stored frame is read once.
+std::vector<double> second_differences(const FrameReader& r, const LevelSeries& s) {
+  const std::vector<uint8_t> done = r.done(s.level);
+  const std::vector<char> mask = simulated_vertices(r.object_offsets(s.level), s.obstacle);
+  std::vector<double> m(done.size(), kNaN);
+  Positions x[3];  // frames t - 2, t - 1, t
+  int in_a_row = 0;  // stored frames ending at t
+  for (std::size_t t = 0; t < done.size(); ++t) {
+    if (!done[t]) {
+      in_a_row = 0;
+      continue;
+    }
+    x[0] = std::move(x[1]), x[1] = std::move(x[2]), x[2] = r.frame(s.level, static_cast<int>(t));
+    if (++in_a_row >= 3) m[t - 1] = max_second_difference(x[0], x[1], x[2], mask);
+  }
+  return m;
+}
+
+// "infinite: ..." / "undefined: ..." for a pop that is not finite (JSON null); empty for a number.
+std::string pop_note(const SeamPop& p) {
+  if (std::isinf(p.pop)) return "infinite: the background is 0 and the peak is not";
+  if (!std::isnan(p.pop)) return "";
+  return std::isnan(p.peak)         ? "undefined: m is not defined at s or s + 1"
+         : std::isnan(p.background) ? "undefined: m is not defined at any background frame"
+                                    : "undefined: the peak and the background are 0";
+}
+
+// The pops of series k at the seams; with `one` (FILE's same level, the K = 1 run) its pops as the
+// baseline and whether each seam is visible (pop > 0.5 and > 1.5 times the baseline); one_missing:
+// why there is no baseline although OTHER was given (empty with one file).
+nlohmann::json pop_entry(const Measured& k, const Measured* one, const std::string& one_missing,
+                         const std::vector<int>& seams) {
+  const std::vector<SeamPop> pk = seam_pops(k.second_diff, seams);
+  const std::vector<SeamPop> p1 = one ? seam_pops(one->second_diff, seams) : std::vector<SeamPop>();
+  nlohmann::json e = {{"file", k.s.file}, {"level", k.s.level}, {"seams", nlohmann::json::array()},
+                      {"units", "m per frame^2 (no division by h^2)"}};
+  int visible = 0;
+  for (std::size_t i = 0; i < pk.size(); ++i) {
+    const SeamPop& p = pk[i];
+    const double base = one ? p1[i].pop : kNaN;
+    const bool vis = p.pop > 0.5 && p.pop > 1.5 * base;  // false with NaN on either side
+    nlohmann::json j = {{"seam", p.seam}, {"peak_m", num(p.peak)}, {"background_m", num(p.background)},
+                        {"background_frames", p.background_frames}, {"pop", num(p.pop)},
+                        {"baseline_pop", num(base)}, {"visible", vis}};
+    if (const std::string note = pop_note(p); !note.empty()) j["pop_note"] = note;
+    if (const std::string note = one ? pop_note(p1[i]) : ""; !note.empty()) j["baseline_pop_note"] = note;
+    if (std::isnan(p.pop))
+      j["visible_note"] = "not judged: the pop is undefined";
+    else if (one && std::isnan(base))
+      j["visible_note"] = "not judged: the K = 1 pop is undefined";
+    else if (!one_missing.empty())
+      j["visible_note"] = "not judged: no K = 1 baseline: " + one_missing;
+    visible += vis;
+    e["seams"].push_back(std::move(j));
+  }
+  e["visible_seams"] = visible;
+  return e;
+}
+
+// The seam_pop array: every level of OTHER with FILE's same level as the baseline when the meshes
+// match (a note says why not otherwise); with FILE alone, FILE's levels without a baseline.
+nlohmann::json all_pops(std::vector<Measured>& all, std::vector<Source>& sources, const std::vector<int>& seams,
+                        std::vector<std::string>& notes) {
+  const std::size_t judged = sources.size() - 1;  // the source whose pops are judged: OTHER, else FILE
+  if (judged == 0) notes.push_back("no OTHER: no K = 1 baseline, so no seam is judged visible");
+  for (Measured& m : all) m.second_diff = second_differences(sources[m.source].reader, m.s);
+  nlohmann::json out = nlohmann::json::array();
+  for (const Measured& k : all) {
+    if (k.source != judged) continue;
+    const Measured* one = nullptr;
+    std::string missing;
+    if (judged == 1) {
+      const auto it = std::find_if(all.begin(), all.end(), [&](const Measured& m) {
+        return m.source == 0 && m.s.level == k.s.level;
+      });
+      if (it == all.end())
+        missing = "FILE has no frames on this level";
+      else if (!same_mesh(sources[1].reader, k.s.level, sources[0].reader, it->s.level))
+        missing = "the two files' meshes differ";
+      else
+        one = &*it;
+    }
+    if (!missing.empty()) notes.push_back("level " + std::to_string(k.s.level) + ": no K = 1 baseline: " + missing);
+    out.push_back(pop_entry(k, one, missing, seams));
   }
   return out;
 }
@@ -319,7 +422,7 @@ void write_csv(const std::string& path, const std::string& shown, const std::vec
   csv << kCsvHeadStart << "time_s,kinetic_energy_J,com_deviation_m";
   for (const std::string& name : object_names) csv << ",com_" << name << "_x,com_" << name << "_y,com_" << name << "_z";
   csv << ",vertex_distance_mean_m,vertex_distance_p95_m,vertex_distance_max_m,hausdorff_m,"
-         "accel_difference_m_per_frame2\n";
+         "accel_difference_m_per_frame2,max_second_difference_m_per_frame2\n";
   csv.precision(17);
   const auto cell = [&csv](double v) {
     csv << ",";
@@ -335,12 +438,43 @@ void write_csv(const std::string& path, const std::string& shown, const std::vec
       cell(m.com[i]);
       for (Eigen::Index o = 0; o < m.s.com[i].rows(); ++o)
         csv << "," << m.s.com[i](o, 0) << "," << m.s.com[i](o, 1) << "," << m.s.com[i](o, 2);
-      for (const double v : {m.vd_mean[i], m.vd_p95[i], m.vd_max[i], m.hausdorff[i], m.accel_diff[i]}) cell(v);
+      const double m_t = m.second_diff.empty() ? kNaN : m.second_diff[static_cast<std::size_t>(t)];
+      for (const double v : {m.vd_mean[i], m.vd_p95[i], m.vd_max[i], m.hausdorff[i], m.accel_diff[i], m_t}) cell(v);
       csv << "\n";
     }
   }
   csv.close();
   if (!csv) throw InputError(shown + ": writing the CSV file failed");
+}
+
+// A pop as the text shows it: 2 significant digits, "inf" or "n/a" (the JSON's null with its note).
+std::string pop_text(const nlohmann::json& pop, const nlohmann::json& seam, const char* note_key) {
+  if (pop.is_number()) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.2g", pop.get<double>());
+    return text;
+  }
+  return seam.value(note_key, "").rfind("infinite", 0) == 0 ? "inf" : "n/a";
+}
+
+// One line per level: "seam pop level 2 (F): seam 100 pop 0.31 (K=1 0.22), ... VISIBLE; 1 of 2 visible".
+void print_pops(const nlohmann::json& levels) {
+  for (const nlohmann::json& l : levels) {
+    std::string line;
+    bool baseline = false;
+    for (const nlohmann::json& s : l["seams"]) {
+      line += (line.empty() ? ": " : ", ") + std::string("seam ") + std::to_string(s["seam"].get<int>()) + " pop " +
+              pop_text(s["pop"], s, "pop_note");
+      if (s.contains("baseline_pop_note") || s["baseline_pop"].is_number())
+        line += " (K=1 " + pop_text(s["baseline_pop"], s, "baseline_pop_note") + ")", baseline = true;
+      if (s["visible"].get<bool>()) line += " VISIBLE";
+    }
+    if (baseline)
+      line += "; " + std::to_string(l["visible_seams"].get<int>()) + " of " + std::to_string(l["seams"].size()) +
+              " visible";
+    std::printf("seam pop level %d (%s)%s\n", l["level"].get<int>(), l["file"].get<std::string>().c_str(),
+                line.c_str());
+  }
 }
 
 void print_text(const nlohmann::json& j) {
@@ -364,7 +498,7 @@ void print_text(const nlohmann::json& j) {
     if (l.contains("vertex_distance_note"))
       std::printf("%s level %d: vertex distance: %s\n", l["file"].get<std::string>().c_str(), l["level"].get<int>(),
                   l["vertex_distance_note"].get<std::string>().c_str());
-  if (!j["seam_jitter"].is_array()) return;
+  if (!j.contains("seam_jitter_notes")) return;  // no --seams
   for (const nlohmann::json& s : j["seam_jitter"])
     std::printf("seam jitter level %d: max seam d %.4g m/frame^2, median other d %.4g, ratio %s\n",
                 s["level"].get<int>(), f(s["max_seam_d_m"]), f(s["median_other_d_m"]),
@@ -372,13 +506,13 @@ void print_text(const nlohmann::json& j) {
                                        : s["ratio_note"].get<std::string>().c_str());
   for (const nlohmann::json& n : j["seam_jitter_notes"])
     std::printf("seam jitter %s\n", n.get<std::string>().c_str());
+  print_pops(j["seam_pop"]);
+  for (const nlohmann::json& n : j["seam_pop_notes"]) std::printf("seam pop %s\n", n.get<std::string>().c_str());
 }
 
 }  // namespace
 
 int compare(const CompareArgs& args) {
-  if (!args.seams.empty() && args.other.empty())
-    throw InputError(args.file + ": --seams needs OTHER, the run with time subsets (FILE is the K = 1 run)");
   check_input_file(args.file, "frame file");
   if (!args.other.empty()) check_input_file(args.other, "frame file");
   const std::string csv_path = args.csv.empty() ? args.file + ".compare.csv" : args.csv;
@@ -408,17 +542,19 @@ int compare(const CompareArgs& args) {
   if (ref == all.size()) throw InputError(args.file + ": no level holds a frame");
   std::vector<int> seams;
   if (!args.seams.empty())
-    seams = parse_seams(args.seams, args.other,
-                        std::min(sources[0].reader.num_frames(), sources[1].reader.num_frames()) - 1);
+    seams = parse_seams(args.seams, args.other.empty() ? args.file : args.other,
+                        std::min(sources.front().reader.num_frames(), sources.back().reader.num_frames()) - 1);
 
   measure_all(all, sources, ref);
   nlohmann::json out = {{"reference", {{"file", all[ref].s.file}, {"level", all[ref].s.level},
                                        {"vertices", sources[0].reader.num_vertices(all[ref].s.level)}}},
-                        {"levels", nlohmann::json::array()}, {"seam_jitter", nullptr}};
+                        {"levels", nlohmann::json::array()}, {"seam_jitter", nullptr}, {"seam_pop", nullptr}};
   if (!seams.empty()) {
-    std::vector<std::string> notes;
-    out["seam_jitter"] = all_seams(all, sources, seams, notes);
-    out["seam_jitter_notes"] = notes;
+    std::vector<std::string> jitter_notes, pop_notes;
+    out["seam_jitter"] = all_seams(all, sources, seams, jitter_notes);
+    out["seam_jitter_notes"] = jitter_notes;
+    out["seam_pop"] = all_pops(all, sources, seams, pop_notes);
+    out["seam_pop_notes"] = pop_notes;
   }
   for (const Measured& m : all) out["levels"].push_back(series_json(m, sources[m.source]));
 

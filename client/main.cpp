@@ -253,7 +253,8 @@ int main(int argc, char** argv) {
   compare->add_flag("--force", cmp.force, "Replace an existing CSV file even when pd compare did not write it");
   compare->add_flag("--json", cmp.json, "Print one JSON object on stdout instead of the table");
   compare->add_option("--seams", cmp.seams,
-                      "T1,T2,...: frames where later time subsets of OTHER start (FILE: the K = 1 run); adds seam jitter");
+                      "T1,T2,...: frames where later time subsets start (0: the level's start); adds each seam's pop, and "
+                      "with OTHER (the run with subsets; FILE the K = 1 run) the baseline, the visible seams and the jitter");
 
   pd::cli::KeysArgs keys_args;
   auto* keys = app.add_subcommand(

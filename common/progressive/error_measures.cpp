@@ -167,6 +167,17 @@ double acceleration_difference(const Positions& k_prev, const Positions& k_now, 
 
 namespace {
 
+// Frames either side of a seam's pair {s, s + 1} that its pop's background is taken from.
+constexpr int kSeamPopWindow = 20;
+
+// num / den for the seam measures (ratio, pop): +inf when den is 0 and num > 0, NaN when both are 0
+// or either is NaN.
+double seam_ratio(double num, double den) {
+  if (std::isnan(num) || std::isnan(den)) return kNaN;
+  if (den > 0.0) return num / den;
+  return num > 0.0 ? std::numeric_limits<double>::infinity() : kNaN;
+}
+
 double median(std::vector<double> v) {
   if (v.empty()) return kNaN;
   const std::size_t mid = v.size() / 2;
@@ -207,12 +218,50 @@ SeamJitter seam_jitter(const std::vector<double>& d, const std::vector<int>& sea
       other.push_back(d[static_cast<std::size_t>(t)]);
   out.median_other = median(std::move(other));
 
-  if (std::isnan(out.max_seam_d) || std::isnan(out.median_other))
-    out.ratio = kNaN;
-  else if (out.median_other > 0.0)
-    out.ratio = out.max_seam_d / out.median_other;
-  else
-    out.ratio = out.max_seam_d > 0.0 ? std::numeric_limits<double>::infinity() : kNaN;
+  out.ratio = seam_ratio(out.max_seam_d, out.median_other);
+  return out;
+}
+
+// ---- seam pop ------------------------------------------------------------------------------------------
+
+double max_second_difference(const Positions& prev, const Positions& now, const Positions& next,
+                             const std::vector<char>& mask) {
+  for (const Positions* p : {&now, &next}) require_same_shape(prev, *p, mask.size(), "max_second_difference");
+  double worst = 0.0;
+  for (Eigen::Index i = 0; i < prev.rows(); ++i)
+    if (mask[static_cast<std::size_t>(i)])
+      worst = std::max(worst, (next.row(i) - 2.0 * now.row(i) + prev.row(i)).norm());
+  return worst;
+}
+
+std::vector<SeamPop> seam_pops(const std::vector<double>& m, const std::vector<int>& seams) {
+  const int n = static_cast<int>(m.size());
+  std::vector<int> starts = seams;
+  std::sort(starts.begin(), starts.end());
+  starts.erase(std::unique(starts.begin(), starts.end()), starts.end());
+  std::vector<char> seam_frame(m.size(), 0);  // t in {s', s' + 1} of some seam s': in no background
+  for (const int s : starts) {
+    if (s < 0 || s >= n - 1)
+      throw std::invalid_argument("seam_pops: seam frame " + std::to_string(s) + " outside 0.." +
+                                  std::to_string(n - 2));
+    seam_frame[static_cast<std::size_t>(s)] = seam_frame[static_cast<std::size_t>(s) + 1] = 1;
+  }
+  const auto defined = [&m](int t) { return !std::isnan(m[static_cast<std::size_t>(t)]); };
+  std::vector<SeamPop> out;
+  for (const int s : starts) {
+    SeamPop p;
+    p.seam = s;
+    p.peak = kNaN;
+    for (const int t : {s, s + 1})
+      if (defined(t) && !(m[static_cast<std::size_t>(t)] <= p.peak)) p.peak = m[static_cast<std::size_t>(t)];
+    std::vector<double> background;
+    for (int t = std::max(0, s - kSeamPopWindow); t <= std::min(n - 1, s + 1 + kSeamPopWindow); ++t)
+      if (defined(t) && !seam_frame[static_cast<std::size_t>(t)]) background.push_back(m[static_cast<std::size_t>(t)]);
+    p.background_frames = static_cast<int>(background.size());
+    p.background = distance_stats(std::move(background)).p95;  // NaN for none
+    p.pop = seam_ratio(p.peak, p.background);
+    out.push_back(p);
+  }
   return out;
 }
 

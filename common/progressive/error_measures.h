@@ -119,4 +119,42 @@ struct SeamJitter {
 };
 SeamJitter seam_jitter(const std::vector<double>& d, const std::vector<int>& seam_starts);
 
+// ---- seam pop: one run's own motion at a seam ---------------------------------------------------------
+//
+// Whether a seam shows as a jolt in one run, judged against that run's own motion around it (no
+// second run needed; the K = 1 run's pop at the same seams is the baseline that tells a seam's jolt
+// from the scene's own, e.g. an impact that happens to fall on a seam; pd compare calls a seam visible
+// when its pop is > 0.5 and > 1.5 times the K = 1 run's, docs/progressive.md):
+//   m(t) = max over selected vertices i of | x_i(t+1) - 2 x_i(t) + x_i(t-1) |     (m per frame^2)
+// the per-frame maximum second difference of positions (Euclidean norm of the 3-vector, not divided
+// by h^2: multiply by 1 / h^2 for m/s^2), defined where frames t-1, t and t+1 are all stored.
+
+// m(t) from frames t-1, t, t+1 of one run (each (n, 3), m, same mesh); mask: n flags. 0 when no
+// vertex is selected. Throws std::invalid_argument when the sizes differ.
+double max_second_difference(const Positions& prev, const Positions& now, const Positions& next,
+                             const std::vector<char>& mask);
+
+// The pop of each seam s (a later subset (s, b] starts from frame s; s = 0 is the level's start, whose
+// first solved frames are 1 and 2) from m (one entry per frame t = 0..N, NaN where m is not defined:
+// always at 0 and N):
+//   peak        max of m(t) over t in {s, s + 1} where defined (m per frame^2; NaN if neither is);
+//   background  the nearest-rank 95th percentile (sorted[ceil(0.95 n) - 1], as distance_stats) of the
+//               n = background_frames values m(t), t in [s - 20, s + 21] (20 frames either side of
+//               the pair {s, s + 1}), where m is defined, leaving out t in {s', s' + 1} for every
+//               seam s' of the list: no seam's own jolt is part of any seam's background (m per
+//               frame^2; NaN when no frame is left). With 20 or more values one stray frame in the
+//               window does not set the background alone; with fewer it is their max;
+//   pop         peak / background: +inf when background is 0 and peak > 0, NaN when both are 0 or
+//               either is NaN (callers report peak and background then).
+// One entry per seam in increasing order, repeats merged. Throws std::invalid_argument for a seam
+// outside [0, m.size() - 1) (s + 1 must be a frame).
+struct SeamPop {
+  int seam = 0;
+  double peak = 0.0;
+  double background = 0.0;
+  double pop = 0.0;
+  int background_frames = 0;
+};
+std::vector<SeamPop> seam_pops(const std::vector<double>& m, const std::vector<int>& seams);
+
 }  // namespace pd

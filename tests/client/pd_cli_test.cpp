@@ -456,8 +456,8 @@ TEST(PdCli, CompareJsonGivesEveryMeasurePerLevelAndFrameAndRejectsBadSeams) {
   // Bad input: exit 2 with "pd: error: <file>: ...".
   const std::string p = dir + "/p.h5", d = dir + "/d.h5";
   for (const auto& [args, file] : std::vector<std::pair<std::string, std::string>>{
-           {p + " --seams 1", p}, {p + " " + d + " --seams 1,x", d}, {p + " " + d + " --seams 3", d},
-           {p + " " + d + " --seams 0", d}}) {
+           {p + " --seams 3", p}, {p + " " + d + " --seams 1,x", d}, {p + " " + d + " --seams 3", d},
+           {p + " " + d + " --seams 1,-1", d}}) {
     const CliResult bad = run_pd("compare " + args + " --csv " + dir + "/bad.csv");
     EXPECT_EQ(bad.exit_code, 2) << args << ": " << bad.output;
     EXPECT_NE(bad.output.find("pd: error: " + file + ": "), std::string::npos) << args << ": " << bad.output;

@@ -1,5 +1,6 @@
 // Error measures (progressive/error_measures.h) on constructed cases with known answers: translated
-// copies, one displaced vertex, planes at known offsets, accelerations that differ at one frame.
+// copies, one displaced vertex, planes at known offsets, accelerations that differ at one frame,
+// per-frame second differences with a spike at a seam.
 #include "progressive/error_measures.h"
 
 #include <gtest/gtest.h>
@@ -211,6 +212,110 @@ TEST(ErrorMeasures, SeamJitterAtTheLastDefinedFrameHasAnUndefinedSecondEntry) {
   EXPECT_THROW(seam_jitter({kNaN, 1.0, kNaN}, {3}), std::invalid_argument);
   EXPECT_THROW(seam_jitter({kNaN, 1.0, kNaN}, {-1}), std::invalid_argument);
   EXPECT_TRUE(std::isnan(seam_jitter({kNaN, 1.0, kNaN}, {1}).median_other));  // no other frame
+}
+
+TEST(ErrorMeasures, MaxSecondDifferenceIsTheLargestNormOfASelectedVerticesSecondDifference) {
+  const std::vector<char> all(4, 1);
+  // x = t^2 along x for every vertex: second difference 2 m per frame^2 (no h involved). Uniform
+  // velocity: 0, not the first difference.
+  EXPECT_EQ(max_second_difference(at(1), at(4), at(9), all), 2.0);
+  EXPECT_EQ(max_second_difference(at(1), at(2), at(3), all), 0.0);
+  // Vertex 1 jumps by (0, 0.375, 0.5) in the middle frame: |(0, -0.75, -1)| = 1.25 exactly.
+  Positions jump = at(0);
+  jump.row(1) << 0.0, 0.375, 0.5;
+  EXPECT_EQ(max_second_difference(at(0), jump, at(0), all), 1.25);
+  // The mask leaves the jumping vertex out (an obstacle), and an empty selection gives 0.
+  EXPECT_EQ(max_second_difference(at(0), jump, at(0), {1, 0, 1, 1}), 0.0);
+  EXPECT_EQ(max_second_difference(at(1), at(4), at(9), {0, 0, 0, 0}), 0.0);
+  EXPECT_THROW(max_second_difference(at(0), at(0, 3), at(0), all), std::invalid_argument);
+  EXPECT_THROW(max_second_difference(at(0), at(0), at(0), {1, 1, 1}), std::invalid_argument);
+}
+
+TEST(ErrorMeasures, SeamPopIsThePeakOverTheNearestRank95thPercentileOfTheWindowAroundTheSeam) {
+  // Frames 0..60, m undefined at 0 and 60; seam 30. The window is [10, 51] without 30 and 31: 40
+  // values, all 1 except 2, 3 and 4; the nearest rank ceil(0.95 * 40) - 1 = 37 is the third largest,
+  // 2 (the max would be 4, rank 38 gives 3, an interpolated p95 2.05). Frames 9 and 52, just
+  // outside the window, are 50: had either been counted, there would be 41 values and rank 38.
+  std::vector<double> m(61, 50.0);
+  m.front() = m.back() = kNaN;
+  for (int t = 10; t <= 51; ++t) m[t] = 1.0;
+  m[12] = 2.0, m[20] = 3.0, m[40] = 4.0;
+  m[30] = 10.0, m[31] = 6.0;  // the peak is the larger of the two seam frames
+  const std::vector<SeamPop> p = seam_pops(m, {30});
+  ASSERT_EQ(p.size(), 1u);
+  EXPECT_EQ(p[0].seam, 30);
+  EXPECT_EQ(p[0].peak, 10.0);
+  EXPECT_EQ(p[0].background_frames, 40);
+  EXPECT_EQ(p[0].background, 2.0);
+  EXPECT_EQ(p[0].pop, 5.0);
+}
+
+TEST(ErrorMeasures, SeamPopLeavesEverySeamsFramesOutOfEveryBackground) {
+  // Frames 0..20, seams 5 and 10 (given twice and out of order: merged, in increasing order). m = 1
+  // except at the seams. Fewer than 20 values, so the background is their max: had seam 10's
+  // frames (20) entered seam 5's background, its pop would be 0.4.
+  std::vector<double> m(21, 1.0);
+  m.front() = m.back() = kNaN;
+  m[5] = 8.0, m[10] = m[11] = 20.0;
+  const std::vector<SeamPop> p = seam_pops(m, {10, 5, 10});
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(p[0].seam, 5);
+  EXPECT_EQ(p[1].seam, 10);
+  for (const SeamPop& s : p) {
+    EXPECT_EQ(s.background_frames, 15) << s.seam;  // frames 1..19 without 5, 6, 10, 11
+    EXPECT_EQ(s.background, 1.0) << s.seam;
+  }
+  EXPECT_EQ(p[0].peak, 8.0);
+  EXPECT_EQ(p[0].pop, 8.0);
+  EXPECT_EQ(p[1].pop, 20.0);
+}
+
+TEST(ErrorMeasures, SeamPopAtTheLevelsStartTakesThePeakFromFrame1) {
+  // Seam 0: m(0) is never defined, so the peak is m(1); frames 0 and 1 are left out of the
+  // background, which is frames 2..9 (max 0.5: fewer than 20 values).
+  std::vector<double> m(11, 0.25);
+  m.front() = m.back() = kNaN;
+  m[1] = 4.0, m[5] = 0.5;
+  const std::vector<SeamPop> p = seam_pops(m, {0});
+  ASSERT_EQ(p.size(), 1u);
+  EXPECT_EQ(p[0].peak, 4.0);
+  EXPECT_EQ(p[0].background_frames, 8);
+  EXPECT_EQ(p[0].background, 0.5);
+  EXPECT_EQ(p[0].pop, 8.0);
+}
+
+TEST(ErrorMeasures, SeamPopWithoutDefinedFramesIsNaNButKeepsWhatIsDefined) {
+  // Frames 3 and 4 lack a neighbour: no peak, pop NaN; the background is still reported.
+  const std::vector<SeamPop> gap = seam_pops({kNaN, 1.0, 1.0, kNaN, kNaN, 1.0, 1.0, kNaN}, {3});
+  EXPECT_TRUE(std::isnan(gap[0].peak));
+  EXPECT_EQ(gap[0].background, 1.0);
+  EXPECT_EQ(gap[0].background_frames, 4);
+  EXPECT_TRUE(std::isnan(gap[0].pop));
+  // Frames 0..2: seam 0's only defined frame is its own peak; no background frame is left.
+  const std::vector<SeamPop> alone = seam_pops({kNaN, 2.0, kNaN}, {0});
+  EXPECT_EQ(alone[0].peak, 2.0);
+  EXPECT_EQ(alone[0].background_frames, 0);
+  EXPECT_TRUE(std::isnan(alone[0].background));
+  EXPECT_TRUE(std::isnan(alone[0].pop));
+}
+
+TEST(ErrorMeasures, SeamPopWithZeroBackgroundIsInfiniteOrUndefined) {
+  // A still scene that jolts at the seam's second frame: infinite; no jolt either: 0 / 0, NaN.
+  const std::vector<SeamPop> jolt = seam_pops({kNaN, 0.0, 0.0, 0.0, 3.0, 0.0, 0.0, kNaN}, {3});
+  EXPECT_EQ(jolt[0].peak, 3.0);
+  EXPECT_EQ(jolt[0].background, 0.0);
+  EXPECT_TRUE(std::isinf(jolt[0].pop) && jolt[0].pop > 0);
+  const std::vector<SeamPop> still = seam_pops({kNaN, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, kNaN}, {3});
+  EXPECT_EQ(still[0].peak, 0.0);
+  EXPECT_TRUE(std::isnan(still[0].pop));
+}
+
+TEST(ErrorMeasures, SeamPopRefusesASeamWithoutTheFrameAfterIt) {
+  const std::vector<double> m = {kNaN, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, kNaN};  // frames 0..7
+  EXPECT_EQ(seam_pops(m, {6}).size(), 1u);  // s + 1 = 7 is the last frame
+  EXPECT_THROW(seam_pops(m, {7}), std::invalid_argument);
+  EXPECT_THROW(seam_pops(m, {-1}), std::invalid_argument);
+  EXPECT_THROW(seam_pops({}, {0}), std::invalid_argument);
 }
 
 }  // namespace
