@@ -47,6 +47,8 @@ int main(int argc, char** argv) {
   app.add_option("--fail-level", options.fail_level,
                  "Fault injection for tests: every task of this level fails with an 'injected failure' message")
       ->check(CLI::NonNegativeNumber);
+  app.add_flag("--refuse-vertical-starts", options.refuse_vertical_starts,
+               "Fault injection for tests: every vertical start fails as a refused safe upsampling");
   app.add_option("--server-key", options.server_key_file,
                  "The scheduler's public key file (its PREFIX.pub); with --key, for a scheduler beyond loopback");
   app.add_option("--key", options.key_file, "This worker's key pair (PREFIX.key from pd keys); with --server-key");

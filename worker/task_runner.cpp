@@ -68,8 +68,13 @@ void HierarchyCache::put(const std::string& hash, std::shared_ptr<const SceneHie
 
 bool HierarchyCache::has(const std::string& hash) const { return find(hash) != nullptr; }
 
-TaskRunner::TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache, int fail_level)
-    : wake_fd_(wake_fd), scratch_dir_(std::move(scratch_dir)), cache_(cache), fail_level_(fail_level) {
+TaskRunner::TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache, int fail_level,
+                       bool refuse_vertical_starts)
+    : wake_fd_(wake_fd),
+      scratch_dir_(std::move(scratch_dir)),
+      cache_(cache),
+      fail_level_(fail_level),
+      refuse_vertical_starts_(refuse_vertical_starts) {
   fs::create_directories(scratch_dir_);
 }
 
@@ -259,6 +264,9 @@ void TaskRunner::run_level(const protocol::AssignTask& task) {
   const std::shared_ptr<const SceneHierarchy> h = hierarchy_for(task, job_dir);
   LevelTaskInputs inputs;
   if (task.level >= 1) inputs.below = [this](int t) { return wait_below(t); };
+  // A vertical start: a later subset of a refinement level that does not continue from own frames.
+  if (refuse_vertical_starts_ && task.level >= 1 && task.start > 0 && !task.own_start)
+    throw UpsamplingFailed("injected refusal: this worker refuses every vertical start (--refuse-vertical-starts)");
   if (task.own_before && task.own_start) {
     inputs.own_before = to_vector(*task.own_before);
     inputs.own_start = to_vector(*task.own_start);

@@ -38,8 +38,10 @@ class HierarchyCache {
 class TaskRunner {
  public:
   // scratch_dir: where scene files and hierarchy blobs are written (created when missing).
-  // fail_level >= 0: every level task of that level fails at once (fault injection for tests).
-  TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache, int fail_level = -1);
+  // Fault injection for tests: fail_level >= 0: every level task of that level fails at once;
+  // refuse_vertical_starts: every vertical start fails as a refused safe upsampling.
+  TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache, int fail_level = -1,
+             bool refuse_vertical_starts = false);
   ~TaskRunner();  // cancels and joins
   TaskRunner(const TaskRunner&) = delete;
   TaskRunner& operator=(const TaskRunner&) = delete;
@@ -71,6 +73,7 @@ class TaskRunner {
   std::string scratch_dir_;
   HierarchyCache& cache_;
   int fail_level_ = -1;
+  bool refuse_vertical_starts_ = false;
   mutable std::mutex mutex_;
   std::condition_variable below_arrived_;
   std::map<int, Eigen::VectorXd> below_;  // frames of level l-1 fed to the running attempt

@@ -20,6 +20,9 @@ struct WorkerOptions {
   int heartbeat_ms = 1000;  // until the scheduler's Welcome says otherwise
   // Fault injection for the farm's tests: every task of this level fails at once (-1: none).
   int fail_level = -1;
+  // Fault injection for the farm's tests: every vertical start is refused as safe upsampling refuses
+  // one (no scene of ours is refused since safe upsampling projects strain limits).
+  bool refuse_vertical_starts = false;
   // CURVE: --server-key (the scheduler's .pub) and --key (this worker's pair), both or neither, read
   // by main() into `curve` and applied to every session's socket before it connects.
   std::string server_key_file, key_file;

@@ -445,7 +445,8 @@ RelaxationReport relax_strain(const RelaxationMesh& mesh, const std::vector<int>
     double new_ratio = 0.0;
     violating.clear();
     measure(x, report.max_stretch_after, new_ratio, met, &violating);
-    if (violating.empty() || new_ratio > ratio * (1.0 - kMinStrainProgress)) break;
+    if (violating.empty() || (settings.stop_without_progress && new_ratio > ratio * (1.0 - kMinStrainProgress)))
+      break;
     ratio = new_ratio;
     for (int f : violating) {
       auto it = weight.find(f);

@@ -145,6 +145,10 @@ struct StrainRelaxationSettings {
   // range PSQ keeps between primitives (1e-4 to 1e-3 m), so the barrier stays local.
   double contact_gap = 1e-4;
   int max_rounds = 8;                   // membrane reweighting rounds (>= 1)
+  // Stop when a round improves the worst stretch ratio by less than a relative 1e-6. Off: the
+  // rounds go on to max_rounds while any face is over its goal (reweighting is not monotone: on the
+  // flag a round that raised the worst ratio was often followed by rounds that met every goal).
+  bool stop_without_progress = true;
   int newton_iterations_per_round = 50; // (>= 1)
   double anchor_stiffness = 1e-2;       // as GapRelaxationSettings::anchor_stiffness
 };
@@ -162,8 +166,8 @@ struct StrainRelaxationSettings {
 // their neighbours that are under their limits. Why not the StrainLimitTerm barrier: it is infinite
 // at an over-limit start, which is exactly the state this solve starts from. Stops when every limited
 // face with a free vertex meets its goal, when no violating face can change (all fixed), after
-// max_rounds, or when a round improves the largest stretch ratio sigma_max / limit by less than
-// 1e-6 (relative). Faces whose vertices are all fixed cannot be fixed here; they still count in
+// max_rounds, or (with stop_without_progress) when a round improves the largest stretch ratio
+// sigma_max / limit by less than 1e-6 (relative). Faces whose vertices are all fixed cannot be fixed here; they still count in
 // max_stretch_* and make satisfied false if over their limit.
 // satisfied = every limited face meets its goal.
 // Throws std::invalid_argument as relax_gaps (minus min_gap), and for face_limit of the wrong size or

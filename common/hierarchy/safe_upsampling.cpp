@@ -15,6 +15,7 @@
 #include "hierarchy/patch_relaxation.h"
 #include "hierarchy/submesh_relaxation.h"
 #include "physics/contact/start_check.h"
+#include "hierarchy/strain_projection.h"
 #include "physics/strain_limit.h"
 
 namespace pd {
@@ -450,14 +451,36 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     for (const Tri& t : faces) limit[static_cast<std::size_t>(f++)] = by_tri.count(t) ? by_tri.at(t) : 0.0;
     const RelaxationMesh rm{&m.prims, &m.rest, level.offset, gp ? &*gp : nullptr};
     report.max_stretch_before = max_stretch_of(m.prims.faces, m.rest, limit, xc);
+    // 7a. The projection (strain_projection.h): a pass over the stretched triangles per iteration,
+    // and on the flag's finer levels all it takes. Its path is followed only when it met the limits:
+    // one that stalled can end further from them than it started.
+    {
+      std::vector<char> free_mask(m.global.size(), 0);
+      for (int k : all_free) free_mask[static_cast<std::size_t>(k)] = 1;
+      Positions projected = xc;
+      std::vector<Positions> path;
+      const StrainProjectionReport pr = project_strain(m.rest, m.prims.faces, limit, free_mask, {}, projected, &path);
+      report.strain_projection_iterations = pr.iterations;
+      if (pr.satisfied) follow_path(m.prims, m.rest, level.offset, gp ? &*gp : nullptr, path, xc);
+    }
+    // 7b. What the projection left (it stalled, or contact cut its path short): the reweighted
+    // membrane relaxations, first of the new vertices alone (PSQ), then of all that may move, the
+    // latter for up to 24 rounds even when a round does not improve (not monotone, see
+    // StrainRelaxationSettings::stop_without_progress; with 8 rounds and the early stop it left
+    // every vertical start of the flag over its limit).
     for (const std::vector<int>* free : {&new_free, &all_free}) {
+      if (!strain_limit_violation(m.prims.faces, m.rest, limit, xc)) break;
+      StrainRelaxationSettings settings;
+      if (free == &all_free) {
+        settings.max_rounds = 24;
+        settings.stop_without_progress = false;
+      }
       Positions relaxed = xc;
       std::vector<Positions> path;
-      const RelaxationReport sr = relax_strain(rm, *free, limit, StrainRelaxationSettings{}, relaxed, &path);
+      relax_strain(rm, *free, limit, settings, relaxed, &path);
       // Followed, not copied: the path is the one that was CCD-checked.
       follow_path(m.prims, m.rest, level.offset, gp ? &*gp : nullptr, path, xc);
       ++report.strain_passes;
-      if (sr.satisfied) break;
     }
     report.strain_seconds = since(strain_start);
     report.max_stretch_after = max_stretch_of(m.prims.faces, m.rest, limit, xc);
@@ -467,8 +490,8 @@ Positions safe_upsample(const UpsamplingLevel& level, const Positions& x_coarse,
     if (const auto v = strain_limit_violation(m.prims.faces, m.rest, limit, xc)) {
       char text[200];
       std::snprintf(text, sizeof text,
-                    "safe upsampling: the strain relaxation left a stretch of %.4f on faces limited to %.4f "
-                    "(%d passes); the level cannot start from it",
+                    "safe upsampling: the strain projection and relaxation left a stretch of %.4f on faces limited to "
+                    "%.4f (%d relaxation passes); the level cannot start from it",
                     v->first, v->second, report.strain_passes);
       throw UpsamplingFailed(text);
     }
