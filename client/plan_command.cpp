@@ -18,6 +18,7 @@
 
 #include "cli_text.h"
 #include "farm/makespan.h"
+#include "farm/seam_placement.h"
 #include "output_files.h"
 #include "farm/task_graph.h"
 #include "store/frame_store.h"
@@ -70,10 +71,27 @@ struct Measured {
   int frames = 0;                  // N
   std::vector<double> step;        // per level with frames: mean solve_seconds
   std::vector<int> frames_used;    // per level: frames t > 0 the mean is over
+  // With K >= 2 and level 0 stored whole: the seams the scheduler would place from it.
+  std::vector<farm::PlacedSeam> seams;
 };
 
+// The seams a farm job with K subsets gets from this preview (scheduler/seams.cpp does the same from
+// its job file): empty when K < 2 or level 0 lacks a frame.
+std::vector<farm::PlacedSeam> placed_seams(const FrameReader& reader, int subsets) {
+  const std::vector<uint8_t> done = reader.done(0);
+  if (subsets < 2 || std::find(done.begin(), done.end(), uint8_t{0}) != done.end()) return {};
+  const std::vector<std::string> names = reader.stat_names(0);
+  const bool has_pairs = std::find(names.begin(), names.end(), "contact_active_pairs") != names.end();
+  const std::vector<double> pairs =
+      has_pairs ? reader.stat(0, "contact_active_pairs") : std::vector<double>(done.size(), NAN);
+  const farm::PreviewProfile p = farm::preview_profile(
+      reader.num_frames() - 1, [&](int t) { return reader.frame(0, t); },
+      [&](int t) { return pairs[static_cast<std::size_t>(t)]; });
+  return farm::place_seams(p, subsets);
+}
+
 // The per-level step costs of a finished run: levels 0..L that hold solved frames, L + 1 >= 1.
-Measured measure(const std::string& path) {
+Measured measure(const std::string& path, int subsets) {
   const FrameReader reader(path);
   Measured m;
   m.frames = reader.num_frames() - 1;
@@ -106,6 +124,7 @@ Measured measure(const std::string& path) {
     m.frames_used.push_back(used);
   }
   if (m.step.empty()) throw InputError(path + ": plan: no level has a solved frame (t > 0) to measure");
+  if (m.step.size() >= 2) m.seams = placed_seams(reader, subsets);
   return m;
 }
 
@@ -132,6 +151,12 @@ void print_table(std::ostream& out, const PlanArgs& a, const Measured& m, const 
     out << "vertical start: " << *a.vertical_start_seconds << " s per subset k >= 2 (--vertical-start-seconds)\n";
   } else {
     out << "vertical start: ASSUMED 2 x the level's step cost per subset k >= 2 (set --vertical-start-seconds)\n";
+  }
+  if (!m.seams.empty()) {
+    out << "seams (placed from the file's level 0 as the scheduler places them from the stored preview):\n";
+    for (const farm::PlacedSeam& s : m.seams) out << "  " << s.reason << "\n";
+  } else if (k >= 2) {
+    out << "seams: the even split (the file's level 0 is not stored whole)\n";
   }
   out << "hierarchy task: " << c.hierarchy_seconds << " s, dispatch: " << c.dispatch_seconds
       << " s per task (assumed; --hierarchy-seconds, --dispatch-seconds)\n";
@@ -160,6 +185,9 @@ void print_json(std::ostream& out, const PlanArgs& a, const Measured& m, const f
   j["vertical_start_assumed"] = !a.vertical_start_seconds.has_value();
   j["hierarchy_seconds"] = c.hierarchy_seconds;
   j["dispatch_seconds"] = c.dispatch_seconds;
+  j["seams"] = nlohmann::json::array();
+  for (const farm::PlacedSeam& s : m.seams)
+    j["seams"].push_back({{"frame", s.frame}, {"even", s.even}, {"reason", s.reason}});
   j["plans"] = nlohmann::json::array();
   for (const Row& r : rows) {
     j["plans"].push_back({{"workers", r.workers},
@@ -204,7 +232,9 @@ int plan(const PlanArgs& args) {
   validate(args);
   check_input_file(args.file, "frame file");
   const std::vector<int> workers = parse_workers(args.workers);
-  const Measured m = measure(args.file);
+  const Measured m = measure(args.file, args.subsets);
+  std::vector<int> seams;
+  for (const farm::PlacedSeam& s : m.seams) seams.push_back(s.frame);
 
   farm::GraphOptions g;
   g.frames = m.frames;
@@ -220,12 +250,12 @@ int plan(const PlanArgs& args) {
   c.hierarchy_seconds = args.hierarchy_seconds;
   c.dispatch_seconds = args.dispatch_seconds;
 
-  const double one = farm::predict_plan(g, c, 1).makespan;
+  const double one = farm::predict_plan(g, c, 1, seams).makespan;
   std::vector<Row> rows;
   for (int w : workers) {
     Row r;
     r.workers = w;
-    r.plan = farm::predict_plan(g, c, w);
+    r.plan = farm::predict_plan(g, c, w, seams);
     r.speedup = r.plan.makespan > 0.0 ? one / r.plan.makespan : 1.0;
     rows.push_back(r);
   }

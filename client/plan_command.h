@@ -6,7 +6,9 @@
 // N = the file's frame count - 1; the job's levels are the levels 0..L that hold solved frames. What
 // the file does not measure is assumed and printed as such: a vertical start costs 2 x the level's
 // step cost unless --vertical-start-seconds is given, the hierarchy task --hierarchy-seconds (0) and
-// each task's dispatch --dispatch-seconds (0).
+// each task's dispatch --dispatch-seconds (0). With --subsets K >= 2 and level 0 stored whole, the
+// refinement levels are cut at the seams the scheduler would place from that preview
+// (farm/seam_placement.h), printed with the reason for each; otherwise at the even split.
 //
 // Bad input (missing or unreadable file, no solved frame, a level with frames above one without,
 // --subsets < 1, a bad --workers list, a negative time) throws InputError naming the option or the

@@ -66,7 +66,10 @@ protocol::Reply Scheduler::serve(protocol::SubmitJob& m) {
   g.levels = job.levels;
   g.subsets = job.subsets;
   g.preview_chunk = job.preview_chunk;
-  g.preview_only = job.preview_only;
+  // K >= 2: the refinement levels are added once the preview is stored, with seams placed from it
+  // (seams.cpp); K = 1 pipelines them behind the preview from the start.
+  const bool deferred = !job.preview_only && job.subsets >= 2 && job.levels >= 2;
+  g.preview_only = job.preview_only || deferred;
   std::vector<NewTask> tasks;
   try {
     tasks = farm::job_tasks(g);
@@ -77,7 +80,8 @@ protocol::Reply Scheduler::serve(protocol::SubmitJob& m) {
   event("job_submitted", id, 0, 0,
         job.name + ": " + std::to_string(job.frames) + " frames, " + std::to_string(job.levels) + " levels, K = " +
             std::to_string(job.subsets) + (job.preview_only ? ", preview only" : "") + ", priority " +
-            std::to_string(job.priority) + ", " + std::to_string(tasks.size()) + " tasks");
+            std::to_string(job.priority) + ", " + std::to_string(tasks.size()) + " tasks" +
+            (deferred ? " (the refinement levels follow the preview, with seams placed from it)" : ""));
   return protocol::Submitted{id};
 }
 
@@ -88,15 +92,26 @@ protocol::Reply Scheduler::serve(protocol::RefineJob& m) {
   if (job->state == protocol::JobState::failed || job->state == protocol::JobState::cancelled)
     return error("job " + std::to_string(m.job) + " is " + protocol::to_string(job->state) + ": nothing to refine");
   if (m.subsets < 1) return error("refine: subsets: must be >= 1, got " + std::to_string(m.subsets));
+  if (job->spec.levels < 2) return error("job " + std::to_string(m.job) + " has one level: nothing to refine");
+  store_->set_subsets(m.job, m.subsets);
+  store_->set_preview_only(m.job, false);
+  if (m.subsets >= 2) {
+    // Pending until the preview is stored whole (now, if it is): seams are placed from it (seams.cpp).
+    add_pending_refinement(store_->job(m.job));
+    if (refinement_pending(store_->job(m.job)))
+      return protocol::Accepted{m.job, "refinement levels added, K = " + std::to_string(m.subsets) +
+                                           ", once the preview is stored (seams are placed from it)"};
+    int added = 0;
+    for (const TaskRow& t : store_->tasks(m.job)) added += t.level >= 1 ? 1 : 0;
+    return protocol::Accepted{m.job, "added " + std::to_string(added) + " refinement tasks, seams placed from the preview"};
+  }
   farm::GraphOptions g;
   g.frames = job->spec.frames;
   g.levels = job->spec.levels;
   g.subsets = m.subsets;
   g.preview_chunk = job->spec.preview_chunk;
   const std::vector<NewTask> tasks = farm::refinement_tasks(g);
-  if (tasks.empty()) return error("job " + std::to_string(m.job) + " has one level: nothing to refine");
   store_->add_tasks(m.job, tasks);
-  store_->set_preview_only(m.job, false);
   event("job_refined", m.job, 0, 0, std::to_string(tasks.size()) + " refinement tasks, K = " + std::to_string(m.subsets));
   return protocol::Accepted{m.job, "added " + std::to_string(tasks.size()) + " refinement tasks"};
 }

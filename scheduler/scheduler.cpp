@@ -69,7 +69,7 @@ void Scheduler::recover() {
   for (const TaskRow& t : store_->recover_after_restart())
     event("task_released", t.job, t.id, 0, "attempt " + std::to_string(t.attempt) + " ended with the earlier scheduler");
   for (const JobRow& job : store_->jobs())
-    if (!job.hierarchy_hash.empty()) rebuild_job_file(job);
+    if (!job.hierarchy_hash.empty() && rebuild_job_file(job)) add_pending_refinement(job);
 }
 
 bool Scheduler::rebuild_job_file(const JobRow& job) {
@@ -217,6 +217,7 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
     if (a.start >= t.last) {  // every frame is stored: the attempt that solved them died before saying done
       store_->finish_task(t.id);
       event("task_done", t.job, t.id, s.worker, "every frame was stored already");
+      if (t.level == 0) add_pending_refinement(store_->job(t.job));
       return false;
     }
     // Continuing horizontally from its own frames start-1 and start (and their barrier stiffness):

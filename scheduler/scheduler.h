@@ -110,6 +110,12 @@ class Scheduler {
   bool worker_busy(const std::string& name) const;
   protocol::JobStatus job_status(const JobRow& job);
 
+  // seams.cpp: refinement of K >= 2 subsets waits for the whole preview, whose calm frames get the seams.
+  bool refinement_pending(const JobRow& job) const;
+  std::vector<int> place_job_seams(const JobRow& job);  // logged as seams_placed, with the reasons
+  // Adds the refinement tasks of a pending job whose preview is stored whole; nothing otherwise.
+  void add_pending_refinement(const JobRow& job);
+
   // scheduler.cpp
   void recover();
   // Builds the job's file anew from the store; false (logged, an unfinished job failed) when it cannot.

@@ -222,6 +222,7 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskDone& m) {
     return;
   }
   store_->finish_task(t.id);
+  if (t.level == 0) add_pending_refinement(store_->job(t.job));  // the preview's last chunk: seams placed
   event("task_done", t.job, t.id, s->worker,
         "level " + std::to_string(t.level) + " frames (" + std::to_string(t.first) + ", " + std::to_string(t.last) +
             "] in " + std::to_string(m.seconds) + " s, " + std::to_string(m.unconverged_steps) + " steps unconverged");

@@ -234,9 +234,14 @@ class Simulation {
 
 }  // namespace
 
-Plan predict_plan(const GraphOptions& options, const Costs& costs, int workers) {
-  std::vector<NewTask> graph = job_tasks(options);  // validates the options before the costs are checked
+Plan predict_plan(const GraphOptions& options, const Costs& costs, int workers, const std::vector<int>& seams) {
+  std::vector<NewTask> graph = job_tasks(options, seams);  // validates the options before the costs are checked
   validate_costs(options, costs, workers);
+  // With K >= 2 the scheduler adds the refinement levels once the preview is stored whole, to place
+  // their seams from it (scheduler/seams.cpp): each of their tasks waits for level 0's frame N.
+  if (options.subsets >= 2 && !options.preview_only)
+    for (NewTask& t : graph)
+      if (t.kind == protocol::TaskKind::level && t.level >= 1) t.needs.push_back(FrameKey{0, options.frames});
   return Simulation(options, std::move(graph), costs, workers).run();
 }
 

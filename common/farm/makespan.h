@@ -6,7 +6,8 @@
 //   - one task per worker at a time; a free worker takes the ready task first in the order (level
 //     ascending, first frame ascending), as TaskStore::claim_next does within a job;
 //   - a task is ready when the hierarchy task is done and the frames it needs (NewTask::needs) are
-//     stored; the hierarchy task is ready at time 0;
+//     stored; the hierarchy task is ready at time 0; with K >= 2 every refinement task also needs
+//     level 0's frame N (the scheduler adds them once the preview is stored, to place the seams);
 //   - a task taken at time s starts working at s + dispatch_seconds (the overhead of every task,
 //     the hierarchy task's included); the hierarchy task then takes hierarchy_seconds;
 //   - a level task (a, b] with a = 0 stores its frame 0 (the level's initial state) when it starts
@@ -44,6 +45,8 @@ struct Plan {
 // Predicts the job's plan on `workers` workers. Throws std::invalid_argument for bad options (as
 // job_tasks), workers < 1, a cost vector whose size is not options.levels, or a cost that is negative
 // or not finite, naming the field: "makespan: step_seconds[1] must be finite and >= 0, got -1".
-Plan predict_plan(const GraphOptions& options, const Costs& costs, int workers);
+// seams: the refinement levels' seams (farm/seam_placement.h) as job_tasks takes them; empty: the
+// even split.
+Plan predict_plan(const GraphOptions& options, const Costs& costs, int workers, const std::vector<int>& seams = {});
 
 }  // namespace pd::farm

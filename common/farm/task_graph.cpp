@@ -14,11 +14,19 @@ void require_at_least(const char* field, int value, int minimum) {
                                 ", got " + std::to_string(value));
 }
 
-void validate(const GraphOptions& o) {
+void validate(const GraphOptions& o, const std::vector<int>& seams) {
   require_at_least("frames", o.frames, 1);
   require_at_least("levels", o.levels, 1);
   require_at_least("subsets", o.subsets, 1);
   require_at_least("preview_chunk", o.preview_chunk, 0);
+  if (seams.empty()) return;
+  if (static_cast<int>(seams.size()) + 1 != o.subsets)
+    throw std::invalid_argument("task graph: " + std::to_string(seams.size()) + " seams for " +
+                                std::to_string(o.subsets) + " subsets (expected subsets - 1)");
+  for (std::size_t k = 0; k < seams.size(); ++k)
+    if (seams[k] <= (k == 0 ? 0 : seams[k - 1]) || seams[k] >= o.frames)
+      throw std::invalid_argument("task graph: seams must increase strictly within (0, " + std::to_string(o.frames) +
+                                  "), got " + std::to_string(seams[k]) + " at position " + std::to_string(k));
 }
 
 NewTask level_task(int level, int first, int last) {
@@ -41,12 +49,15 @@ void add_preview_chain(const GraphOptions& o, std::vector<NewTask>& out) {
   }
 }
 
-void add_refinement(const GraphOptions& o, std::vector<NewTask>& out) {
+void add_refinement(const GraphOptions& o, const std::vector<int>& seams, std::vector<NewTask>& out) {
   const int K = std::min(o.subsets, o.frames);
   const int64_t N = o.frames;
   // b_k = round(k N / K); with K <= N consecutive boundaries differ by at least floor(N / K) >= 1.
   // 64-bit: k N overflows int for long jobs cut into many subsets.
-  auto boundary = [&](int k) { return static_cast<int>((k * N + K / 2) / K); };
+  auto boundary = [&](int k) {
+    if (!seams.empty()) return k == 0 ? 0 : k == K ? o.frames : seams[static_cast<std::size_t>(k - 1)];
+    return static_cast<int>((k * N + K / 2) / K);
+  };
   for (int level = 1; level < o.levels; ++level) {
     for (int k = 0; k < K; ++k) {
       const int a = boundary(k), b = boundary(k + 1);
@@ -81,8 +92,8 @@ int default_preview_chunk(int frames) {
   return std::min(50, frames);
 }
 
-std::vector<NewTask> job_tasks(const GraphOptions& options) {
-  validate(options);
+std::vector<NewTask> job_tasks(const GraphOptions& options, const std::vector<int>& seams) {
+  validate(options, seams);
   std::vector<NewTask> out;
   NewTask hierarchy;
   hierarchy.kind = protocol::TaskKind::hierarchy;
@@ -91,14 +102,14 @@ std::vector<NewTask> job_tasks(const GraphOptions& options) {
   hierarchy.last = 0;
   out.push_back(hierarchy);
   add_preview_chain(options, out);
-  if (!options.preview_only) add_refinement(options, out);
+  if (!options.preview_only) add_refinement(options, seams, out);
   return out;
 }
 
-std::vector<NewTask> refinement_tasks(const GraphOptions& options) {
-  validate(options);
+std::vector<NewTask> refinement_tasks(const GraphOptions& options, const std::vector<int>& seams) {
+  validate(options, seams);
   std::vector<NewTask> out;
-  add_refinement(options, out);
+  add_refinement(options, seams, out);
   return out;
 }
 

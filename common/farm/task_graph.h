@@ -9,7 +9,8 @@
 //      (a, b] with a > 0 continues horizontally from level 0's frames a - 1 and a, so it needs them;
 //   3. unless preview_only, each level l = 1..L cut into K time subsets (a, b] with boundaries
 //      b_k = round(k N / K) = (k N + K / 2) / K in integer arithmetic (K is clamped to N so that no
-//      subset is empty). The first subset starts from the level's initial state at frame 0, the
+//      subset is empty), or at the given seams (farm/seam_placement.h: placed from the stored
+//      preview): strictly increasing in (0, N), subsets - 1 of them. The first subset starts from the level's initial state at frame 0, the
 //      others vertically (safe upsampling of level l - 1's frame a); one whose vertical start is
 //      refused continues horizontally instead (TaskStore::continue_horizontally adds the needs).
 // Every task but the hierarchy task waits for the hierarchy task (after_hierarchy).
@@ -43,11 +44,12 @@ int default_preview_chunk(int frames);
 
 // The job's whole graph: the hierarchy task, level 0's chain, then levels 1..L (unless preview_only),
 // each level's tasks by first frame.
-std::vector<pd::NewTask> job_tasks(const GraphOptions& options);
+// seams: empty for the even split, else as above (std::invalid_argument otherwise).
+std::vector<pd::NewTask> job_tasks(const GraphOptions& options, const std::vector<int>& seams = {});
 
 // Levels 1..L only (what pd refine adds to a preview-only job); preview_only is ignored. Empty when
 // the job has a single level.
-std::vector<pd::NewTask> refinement_tasks(const GraphOptions& options);
+std::vector<pd::NewTask> refinement_tasks(const GraphOptions& options, const std::vector<int>& seams = {});
 
 // A range of frames [first, last] (both included) of one level.
 struct FrameRange {

@@ -400,6 +400,10 @@ void TaskStore::set_preview_only(int64_t job, bool preview_only) {
              preview_only ? 1 : 0);
 }
 
+void TaskStore::set_subsets(int64_t job, int subsets) {
+  update_row(impl_->db, "set_subsets", "job", "UPDATE jobs SET subsets = ?2 WHERE id = ?1", job, subsets);
+}
+
 TaskRow TaskStore::task(int64_t id) const {
   return impl_->read("task", [&] { return read_task(impl_->db, id); });
 }

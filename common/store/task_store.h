@@ -161,6 +161,8 @@ class TaskStore {
   std::string hierarchy_blob(int64_t job) const;  // StoreError when the job has none
   // Sets preview_only = false (pd refine).
   void set_preview_only(int64_t job, bool preview_only);
+  // Sets the job's subsets K (pd refine --subsets).
+  void set_subsets(int64_t job, int subsets);
 
   // Tasks.
   TaskRow task(int64_t id) const;

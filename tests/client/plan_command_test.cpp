@@ -130,6 +130,39 @@ TEST_F(PlanCommandTest, SubsetsAndGivenVerticalStartChangeThePlan) {
   EXPECT_LT(split, single);
 }
 
+// 40 frames, 2 levels; level 0 jolts at frame 20 (vertex 0 lifted 0.5 m in that frame alone: motion at
+// frames 19..21). K = 2: the even split 20 is on the jolt; the seam goes to 23, the nearest frame whose
+// s - 1..s + 2 miss it (16 is one farther), as the scheduler would place it.
+TEST_F(PlanCommandTest, WithSubsetsTheLevelsAreCutAtTheSeamsPlacedFromTheFilesPreview) {
+  {
+    FrameWriter w = FrameWriter::create(path_, "{\"name\": \"plan-test\"}", 40);
+    for (int l = 0; l < 2; ++l) {
+      add_triangle_level(w, l);
+      for (int t = 0; t <= 40; ++t) write_frame(w, l, t, 1.0);
+    }
+    Positions x(3, 3);
+    x << 0, 0, -0.01 * 20 + 0.5, 1, 0, 0, 0, 1, 0;
+    FrameStats stats;
+    stats.scalars = {{"solve_seconds", 1.0}, {"newton_iterations", 3.0}};
+    w.write_frame(0, 20, x, stats);
+    w.close();
+  }
+  PlanArgs a = args("2");
+  a.subsets = 2;
+  const nlohmann::json j = run_json(a);
+  ASSERT_EQ(j["seams"].size(), 1u) << j.dump();
+  EXPECT_EQ(j["seams"][0]["frame"], 23);
+  EXPECT_EQ(j["seams"][0]["even"], 20);
+  EXPECT_NE(j["seams"][0]["reason"].get<std::string>().find("moved from the even split 20"), std::string::npos);
+  a.subsets = 1;
+  EXPECT_TRUE(run_json(a)["seams"].empty());
+  a.subsets = 2;
+  a.json = false;
+  out_.str("");
+  ASSERT_EQ(plan(a), 0);
+  EXPECT_NE(out_.str().find("seams (placed from the file's level 0"), std::string::npos) << out_.str();
+}
+
 TEST_F(PlanCommandTest, OnlyLevelsWithSolvedFramesArePlanned) {
   write_run(2);  // a run whose finest level never ran: level 2 has no frames
   const nlohmann::json j = run_json(args("1"));

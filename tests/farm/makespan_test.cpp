@@ -92,18 +92,20 @@ TEST(Makespan, TwoLevelsOnOneWorkerAreTheSumOfEverything) {
   EXPECT_DOUBLE_EQ(p.busy_fraction, 1.0);
 }
 
-// N = 4, K = 2, no overheads, 3 workers: level 0 stores frame t at t; level 1 (0,2] runs from 0:
-// L1(1) = 3, L1(2) = 6; level 1 (2,4] is taken when level 0's frame 2 lands (time 2), starts vertically
-// until 2 + 2 = 4, then L1(3) = max(4, L0(2)) + 3 = 7, L1(4) = max(7, L0(3)) + 3 = 10.
+// N = 4, K = 2, no overheads, 3 workers: level 0 stores frame t at t. With K >= 2 the refinement
+// waits for the whole preview (time 4; its seams are placed from it): level 1 (0,2] then stores
+// L1(1) = 7, L1(2) = 10; level 1 (2,4] starts vertically until 4 + 2 = 6, then L1(3) = 9, L1(4) = 12.
 TEST(Makespan, VerticalStartOfASecondSubsetComputedByHand) {
   const GraphOptions o{4, 2, 2, 4, false};
   const Plan p = predict_plan(o, costs({1.0, 3.0}, {0.0, 2.0}, 0.0, 0.0), 3);
-  EXPECT_EQ(p.makespan, 10.0);
+  EXPECT_EQ(p.makespan, 12.0);
   EXPECT_EQ(p.preview_seconds, 4.0);
   EXPECT_EQ(p.first_preview_frame_seconds, 1.0);
   ASSERT_EQ(p.level_finish.size(), 2u);
-  EXPECT_EQ(p.level_finish[1], 10.0);
-  EXPECT_DOUBLE_EQ(p.busy_fraction, (4.0 + 6.0 + 2.0 + 6.0) / (3 * 10.0));
+  EXPECT_EQ(p.level_finish[1], 12.0);
+  EXPECT_DOUBLE_EQ(p.busy_fraction, (4.0 + 6.0 + 2.0 + 6.0) / (3 * 12.0));
+  // Given seams cut the level there: (0,1] and (1,4] end at 7 and 4 + 2 + 3 * 3 = 15.
+  EXPECT_EQ(predict_plan(o, costs({1.0, 3.0}, {0.0, 2.0}, 0.0, 0.0), 3, {1}).makespan, 15.0);
   // K = 1 on the same workers: 4 steps of 3 s in a row.
   EXPECT_EQ(predict_plan({4, 2, 1, 4, false}, costs({1.0, 3.0}, {0.0, 2.0}, 0.0, 0.0), 3).makespan, 12.0);
 }
@@ -130,20 +132,18 @@ TEST(Makespan, PreviewOnlyEndsWithThePreview) {
   EXPECT_EQ(p.makespan, 1.0 + 20 * 0.5);
 }
 
-// The case the feeder rule of task_graph.h exists for. N = 10, 3 levels, K = 2, 2 workers, no
-// overheads, c = (1, 0.5, 0.05): level 0 stores frame t at t on worker 1. Worker 2 runs level 1
-// (0,5] (L1(t) = t - 0.5, ends at 4.5) then level 2 (0,5] (ends at 4.75). Level 2 (5,10] could start
-// on level 1's frames 4 and 5, but then it would hold worker 2 while its feeder, level 1 (5,10], ready
-// at 5, waited for level 0 to end at 10 (makespan 12.5). Needing level 1's frame 6, it is not
-// dispatched at 4.75; level 1 (5,10] takes worker 2 at 5 and ends at 9.5 (L1(t) = t - 0.5), then
-// level 2 (5,10] runs from 9.5 on stored inputs: 9.55 ... 9.75. The preview's end is the makespan.
-TEST(Makespan, AVerticalStartIsNotDispatchedAheadOfItsFeeder) {
+// N = 10, 3 levels, K = 2, 2 workers, no overheads, c = (1, 0.5, 0.05): level 0 stores frame t at t
+// on worker 1; the refinement waits for its end at 10. Both workers then take the two level-1 subsets
+// (lowest level first; (5,10] starts vertically at no cost): frames at 10.5 ... 12.5. Level 2's two
+// subsets follow on stored inputs, 12.55 ... 12.75. (Level 2 (5,10] needs level 1's frame 6 too,
+// task_graph.h's feeder rule, so that it never holds a worker ahead of the subset feeding it.)
+TEST(Makespan, RefinementOfTwoSubsetsFollowsTheWholePreviewLevelByLevel) {
   const Plan p = predict_plan({10, 3, 2, 10, false}, costs({1.0, 0.5, 0.05}, {0.0, 0.0, 0.0}, 0.0, 0.0), 2);
   EXPECT_EQ(p.preview_seconds, 10.0);
   ASSERT_EQ(p.level_finish.size(), 3u);
-  EXPECT_EQ(p.level_finish[1], 9.5);
-  EXPECT_NEAR(p.level_finish[2], 9.75, 1e-12);
-  EXPECT_EQ(p.makespan, 10.0);
+  EXPECT_EQ(p.level_finish[1], 12.5);
+  EXPECT_NEAR(p.level_finish[2], 12.75, 1e-12);
+  EXPECT_NEAR(p.makespan, 12.75, 1e-12);
 }
 
 struct RandomJob {

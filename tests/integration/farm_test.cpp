@@ -173,6 +173,13 @@ TEST_F(FarmTest, TwoSubsetsKeepEveryFrameIntersectionFreeAndEqualToOneSubsetBefo
   const json status = job_status(farm, k2);
   expect_every_level_complete(status, kFrames);
   EXPECT_EQ(status.at("subsets"), 2);
+  // K = 2's refinement levels were added once its preview was stored, cut at a seam placed from it
+  // (farm/seam_placement.h: within a quarter subset of the even split 55, logged with the reason);
+  // K = 1's were there from the start.
+  const std::vector<json> placed = test::log_events(farm.scheduler_log(), "seams_placed");
+  ASSERT_EQ(placed.size(), 1u);
+  EXPECT_EQ(placed[0].at("job"), k2);
+  EXPECT_EQ(test::log_events(farm.scheduler_log(), "job_refined").size(), 1u);
   const FrameReader one(farm.dir() + "/k1.h5"), two(farm.dir() + "/k2.h5");
   ASSERT_EQ(two.num_levels(), 3);
   ASSERT_EQ(two.num_levels(), one.num_levels());
@@ -181,7 +188,9 @@ TEST_F(FarmTest, TwoSubsetsKeepEveryFrameIntersectionFreeAndEqualToOneSubsetBefo
   expect_identical_frames(two, one, 0, 0, kFrames);
   for (int l = 1; l < two.num_levels(); ++l) {
     const int seam = first_seam(status, l);
-    EXPECT_EQ(seam, static_cast<int>(std::lround(kFrames / 2.0))) << "level " << l;
+    EXPECT_NEAR(seam, 55, 110 / 8) << "level " << l;
+    EXPECT_EQ(placed[0].at("message").get<std::string>().rfind("frame " + std::to_string(seam) + ",", 0), 0u)
+        << placed[0].dump();
     if (seam <= 0) continue;
     expect_identical_frames(two, one, l, 0, seam);
     const double dev = max_vertex_deviation(two, one, l, seam + 1, kFrames);
@@ -195,8 +204,9 @@ TEST_F(FarmTest, TwoSubsetsKeepEveryFrameIntersectionFreeAndEqualToOneSubsetBefo
 // job ends done instead of failing. The flag at 20 frames, K = 2, on workers that refuse every
 // vertical start (pd-worker --refuse-vertical-starts: since safe upsampling projects strain limits,
 // no scene of ours is refused, the flag's frame 10 included, LevelTask.AVerticalStartWhose
-// ProlongationIsBeyondTheStrainLimitStartsBelowIt). Each level's subset (10, 20] then waits for
-// (0, 10] and continues from its frames 9 and 10: every level has the single run's frames bit for bit.
+// ProlongationIsBeyondTheStrainLimitStartsBelowIt). Each level's subset (s, 20] (s the seam placed
+// from the preview, near 10) then waits for (0, s] and continues from its frames s - 1 and s: every
+// level has the single run's frames bit for bit.
 TEST_F(FarmTest, ASubsetWhoseVerticalStartIsRefusedContinuesHorizontallyAndTheJobEndsDone) {
   constexpr int kFrames = 20;
   test::FarmOptions options;
@@ -211,7 +221,7 @@ TEST_F(FarmTest, ASubsetWhoseVerticalStartIsRefusedContinuesHorizontallyAndTheJo
   for (const json& t : status.at("tasks")) {
     if (!t.at("horizontal").get<bool>()) continue;
     horizontal_levels.insert(t.at("level").get<int>());
-    EXPECT_EQ(t.at("first"), kFrames / 2) << t.dump();
+    EXPECT_NEAR(t.at("first").get<int>(), kFrames / 2, kFrames / 8) << t.dump();  // the placed seam
     EXPECT_EQ(t.at("attempts"), 2) << t.dump();  // the refused one and the horizontal one
   }
   EXPECT_EQ(horizontal_levels, (std::set<int>{1, 2})) << status.dump();
@@ -318,6 +328,43 @@ TEST_F(FarmTest, RefiningAFinishedPreviewAddsTheLevelsAndGivesTheFramesOfOneProg
   expect_every_level_complete(refined, kFrames);
   const FrameReader got(farm.dir() + "/job.h5"), want(ref_path);
   for (int l = 0; l < got.num_levels(); ++l) expect_identical_frames(got, want, l, 0, kFrames);
+}
+
+// pd refine --subsets 3 of a preview-only job: while its preview runs the refinement is pending (no
+// task above level 0, the job still running); once the preview is stored the levels are added, cut
+// at seams placed from it (logged with the reasons, each within a quarter subset of its even split),
+// and the job ends done with every level complete and intersection-free.
+TEST_F(FarmTest, RefiningWithSubsetsWaitsForThePreviewAndCutsTheLevelsAtSeamsPlacedFromIt) {
+  constexpr int kFrames = 60;
+  Farm& farm = start_farm(1, "farm_refine_seams");
+  const int64_t job =
+      submit(farm, {scene_path("cube-trampoline.json"), "--frames", std::to_string(kFrames), "--preview-only"});
+  const test::RunResult refine = farm.pd({"refine", std::to_string(job), "--subsets", "3", "--json"});
+  ASSERT_EQ(refine.exit_code, 0) << refine.describe();
+  wait_until_done(farm, job, kShortJob);
+  fetch(farm, job, farm.dir() + "/job.h5");
+  const json status = job_status(farm, job);
+  expect_every_level_complete(status, kFrames);
+  const std::vector<json> placed = test::log_events(farm.scheduler_log(), "seams_placed");
+  ASSERT_EQ(placed.size(), 1u);
+  const std::string why = placed[0].at("message").get<std::string>();
+  for (int l = 1; l <= 2; ++l) {
+    std::vector<int> firsts;
+    for (const json& t : status.at("tasks"))
+      if (t.at("kind") == "level" && t.at("level") == l) firsts.push_back(t.at("first").get<int>());
+    ASSERT_EQ(firsts.size(), 3u) << status.dump();
+    EXPECT_EQ(firsts[0], 0);
+    for (int k = 1; k <= 2; ++k) {
+      EXPECT_NEAR(firsts[k], 20 * k, kFrames / 12) << "level " << l;
+      EXPECT_NE(why.find("frame " + std::to_string(firsts[k]) + ","), std::string::npos) << why;
+    }
+  }
+  // The refinement was added when the preview's last frame was stored, not before.
+  double last_preview = 0.0;
+  for (const json& e : test::log_events(farm.scheduler_log(), "frame_stored"))
+    if (e.at("message") == "level 0 frame " + std::to_string(kFrames)) last_preview = e.at("time").get<double>();
+  EXPECT_GE(test::log_events(farm.scheduler_log(), "job_refined").at(0).at("time").get<double>(), last_preview);
+  expect_complete_and_intersection_free(FrameReader(farm.dir() + "/job.h5"));
 }
 
 TEST_F(FarmTest, SecondJobQueuesThenRunsAndCancellingTheFirstFreesItsWorkersWithinHeartbeats) {
