@@ -1,7 +1,12 @@
 #include "progressive/level_task.h"
 
+#include <algorithm>
+#include <memory>
 #include <stdexcept>
 #include <string>
+
+#include "physics/guide.h"
+#include "physics/inertia.h"
 
 namespace pd {
 
@@ -25,6 +30,16 @@ Eigen::VectorXd initial_velocity(const Scene& scene, const SceneHierarchy& hiera
   return v;
 }
 
+// The stitch guide's weight at u = (f - a) / W in (0, 1]: a guide of weight w alone (against inertia of
+// stiffness 1) would put the frame a fraction w / (1 + w) of the way to its target, so the weight is
+// chosen for that fraction to follow smoothstep(u) (3u^2 - 2u^3: no jerk where the stitch begins and
+// ends), up to kStitchWeight at u = 1. A weight ramped linearly instead put the first stitched frame
+// 80 % of the way at once, a pop of 1.5 where the stitch began (the flag's seam at 100).
+double stitch_weight(double u) {
+  const double s = u * u * (3.0 - 2.0 * u);
+  return s >= 1.0 ? kStitchWeight : std::min(kStitchWeight, s / (1.0 - s));
+}
+
 }  // namespace
 
 LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hierarchy, const LevelTask& task,
@@ -39,6 +54,9 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
   const bool horizontal = inputs.own_before.has_value() && inputs.own_start.has_value();
   if (inputs.own_before.has_value() != inputs.own_start.has_value()) fail(task, "own frames come in pairs (a-1 and a)");
   if (!refining && a > 0 && !horizontal) fail(task, "the preview (or a direct run) continues only from its own frames a-1 and a");
+  if (inputs.stitch_frames < 0) fail(task, "stitch_frames must be >= 0");
+  if (inputs.stitch_frames > 0 && (!horizontal || !inputs.stitch_target))
+    fail(task, "a stitch continues from own frames a-1 and a toward a target");
 
   SceneSystem sys = build_level_system(scene, hierarchy, l, options.system);
   const Eigen::Index n = sys.x0.size();
@@ -84,8 +102,21 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
     report.vertical_start = true;
   }
 
+  // The stitch's guide (LevelTaskInputs::stitch_target), a term of the level's potential only here.
+  GuideTerm* guide = nullptr;
+  if (inputs.stitch_frames > 0) {
+    auto term = std::make_unique<GuideTerm>(sys.inertia->masses());
+    guide = term.get();
+    sys.ip.add_term(std::move(term));
+  }
+
   Eigen::VectorXd x_hat;
   for (int t = a; t < b; ++t) {
+    if (guide) {
+      const double u = std::min(1.0, double(t + 1 - a) / inputs.stitch_frames);
+      const bool stitching = t + 1 <= a + inputs.stitch_frames;
+      guide->set_guide(stitching ? inputs.stitch_target(t + 1) : x, stitching ? stitch_weight(u) : 0.0);
+    }
     StepInput in;
     if (refining) {
       // PD eq. 5: the momentum of level l-1, prolonged.

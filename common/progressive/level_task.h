@@ -62,7 +62,19 @@ struct LevelTaskInputs {
   // barrier_stiffness stat, J/m^4). Given, the task continues with it and repeats the single run bit
   // for bit; absent, it balances a new one at its first step.
   std::optional<double> own_kappa;
+  // A stitch (physics/guide.h): with a horizontal continuation from own frames a-1 and a, the steps
+  // to frames a+1..a+stitch_frames add a guide toward stitch_target(f) (the later subset's frame f of
+  // the same level, stacked) whose weight ramps as kStitchWeight * smoothstep((f - a) / stitch_frames):
+  // from 0 to 100 times the inertia's stiffness. Later subset frames solve the same step problems
+  // (their inertia targets come from the level below, not from their own past), so each is a
+  // stationary point of step energy plus guide, and the last stitched frame lands on the later
+  // subset's frame to the solver's tolerance. stitch_frames = 0: no stitch.
+  std::function<Eigen::VectorXd(int f)> stitch_target;
+  int stitch_frames = 0;
 };
+
+// The stitch guide's weight at its last frame, in units of the inertia's stiffness M / h^2.
+constexpr double kStitchWeight = 100.0;
 
 struct LevelTaskOptions {
   LevelSystemOptions system;

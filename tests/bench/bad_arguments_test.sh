@@ -46,11 +46,15 @@ refused --levels pd_bench_progressive --levels 0
 refused /nonexistent.json pd_bench_seam_overlap /nonexistent.json --frames 10 --seam 5
 refused --overlaps pd_bench_seam_overlap scenes/flag.json --frames 10 --seam 5 --overlaps 1,x
 refused --seam pd_bench_seam_overlap scenes/flag.json --frames 10 --seam 9
+refused /nonexistent.json pd_bench_seam_stitch /nonexistent.json --frames 100 --seam 30
+refused --widths pd_bench_seam_stitch scenes/flag.json --frames 100 --seam 30 --widths 1,x
+refused --seam pd_bench_seam_stitch scenes/flag.json --frames 40 --seam 30
 refused --bogus pd_bench_hierarchy --bogus
 refused usage pd_bench_contact_step --bogus
 helps pd_bench_step_cost
 helps pd_bench_progressive
 helps pd_bench_seam_overlap
+helps pd_bench_seam_stitch
 
 echo "$checked cases checked"
 exit "$failed"

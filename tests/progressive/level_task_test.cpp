@@ -229,5 +229,38 @@ TEST(LevelTask, AVerticalStartWhoseProlongationIsBeyondTheStrainLimitStartsBelow
   EXPECT_TRUE(subset.count(11) && subset.count(12));
 }
 
+// A stitch (LevelTaskInputs::stitch_target): the flag's level 1, 40 frames, a later subset (20, 40]
+// started vertically at 20. The stitch continues the single run from its frames 19 and 20 over
+// (20, 28], guided toward the later subset's frames: it starts on the single run's branch (its frame
+// 21 nearer the single run's than the later subset's is), ends on the later subset's (frame 28
+// within 0.1 mm of it), and every stitched frame is intersection-free. A stitch without the own
+// frames to continue from is refused.
+TEST(LevelTask, AStitchCarriesTheSingleRunIntoTheLaterSubsetThroughTheLevelsOwnSteps) {
+  Scene scene = load_scene(test::source_dir() + "/scenes/flag.json");
+  scene.frames = 40;
+  const SceneHierarchy h = build_scene_hierarchy(scene);
+  Frames preview, single, later, stitch;
+  run(scene, h, {0, 0, 40}, nullptr, preview);
+  run(scene, h, {1, 0, 40}, &preview, single);
+  run(scene, h, {1, 20, 40}, &preview, later);
+  LevelTaskInputs in;
+  in.own_before = single.at(19);
+  in.own_start = single.at(20);
+  in.stitch_target = [&later](int f) { return later.at(f); };
+  in.stitch_frames = 8;
+  run(scene, h, {1, 20, 28}, &preview, stitch, in);
+  ASSERT_EQ(stitch.size(), 8u);
+  const double apart = (later.at(21) - single.at(21)).cwiseAbs().maxCoeff();
+  ASSERT_GT(apart, 1e-4) << "the later subset's frames must differ from the single run's for the test to mean anything";
+  EXPECT_LT((stitch.at(21) - single.at(21)).cwiseAbs().maxCoeff(), 0.5 * apart);
+  EXPECT_LT((stitch.at(28) - later.at(28)).cwiseAbs().maxCoeff(), 1e-4);
+  for (const auto& [t, x] : stitch) EXPECT_TRUE(test::intersection_free(as_rows(x), h.levels[1].rest.F)) << t;
+  LevelTaskInputs bad;
+  bad.stitch_target = in.stitch_target;
+  bad.stitch_frames = 8;
+  Frames none;
+  EXPECT_THROW(run(scene, h, {1, 20, 28}, &preview, none, bad), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace pd
