@@ -71,6 +71,8 @@ struct Measured {
   int frames = 0;                  // N
   std::vector<double> step;        // per level with frames: mean solve_seconds
   std::vector<int> frames_used;    // per level: frames t > 0 the mean is over
+  // Per level and frame t = 0..N: that frame's solve_seconds (the level's mean where it has none).
+  std::vector<std::vector<double>> frame_steps;
   // With K >= 2 and level 0 stored whole: the seams the scheduler would place from it.
   std::vector<farm::PlacedSeam> seams;
 };
@@ -122,6 +124,12 @@ Measured measure(const std::string& path, int subsets) {
       throw InputError(path + ": plan: level " + std::to_string(l) + ": no solved frame has a " + kStepStat + " value");
     m.step.push_back(sum / used);
     m.frames_used.push_back(used);
+    std::vector<double> per_frame(static_cast<std::size_t>(m.frames + 1), sum / used);
+    for (int t = 1; t <= m.frames; ++t) {
+      const double s = seconds[static_cast<std::size_t>(t)];
+      if (done[static_cast<std::size_t>(t)] && std::isfinite(s)) per_frame[static_cast<std::size_t>(t)] = s;
+    }
+    m.frame_steps.push_back(std::move(per_frame));
   }
   if (m.step.empty()) throw InputError(path + ": plan: no level has a solved frame (t > 0) to measure");
   if (m.step.size() >= 2) m.seams = placed_seams(reader, subsets);
@@ -156,7 +164,7 @@ void print_table(std::ostream& out, const PlanArgs& a, const Measured& m, const 
     out << "seams (placed from the file's level 0 as the scheduler places them from the stored preview):\n";
     for (const farm::PlacedSeam& s : m.seams) out << "  " << s.reason << "\n";
   } else if (k >= 2) {
-    out << "seams: the even split (the file's level 0 is not stored whole)\n";
+    out << "seams: the even split (the file's level 0 is not stored whole, or --frames plans another length)\n";
   }
   out << "hierarchy task: " << c.hierarchy_seconds << " s, dispatch: " << c.dispatch_seconds
       << " s per task (assumed; --hierarchy-seconds, --dispatch-seconds)\n";
@@ -212,6 +220,9 @@ CLI::App* add_plan_subcommand(CLI::App& app, PlanArgs& args) {
   const CLI::Validator seconds = decimal_real(0.0, false, 1e9, "seconds, >= 0 and <= 1e9");
   cmd->add_option("--subsets", args.subsets, "Time subsets K per refinement level (default 1)")
       ->transform(decimal_integer(1, 2147483647));
+  cmd->add_option("--frames", args.frames,
+                  "Frames N to plan (default 0: the file's); a longer shot is planned with the file's step costs")
+      ->transform(decimal_integer(0, kMaxFrames));
   cmd->add_option("--preview-chunk", args.preview_chunk, "Frames per preview task (default 0: min(50, N))")
       ->transform(decimal_integer(0, kMaxFrames));
   cmd->add_option_function<double>(
@@ -232,12 +243,13 @@ int plan(const PlanArgs& args) {
   validate(args);
   check_input_file(args.file, "frame file");
   const std::vector<int> workers = parse_workers(args.workers);
-  const Measured m = measure(args.file, args.subsets);
+  Measured m = measure(args.file, args.subsets);
+  if (args.frames > 0 && args.frames != m.frames) m.seams.clear();  // the file's preview is another length
   std::vector<int> seams;
   for (const farm::PlacedSeam& s : m.seams) seams.push_back(s.frame);
 
   farm::GraphOptions g;
-  g.frames = m.frames;
+  g.frames = args.frames > 0 ? args.frames : m.frames;
   g.levels = static_cast<int>(m.step.size());
   g.subsets = args.subsets;
   g.preview_chunk = args.preview_chunk;
@@ -249,6 +261,9 @@ int plan(const PlanArgs& args) {
   }
   c.hierarchy_seconds = args.hierarchy_seconds;
   c.dispatch_seconds = args.dispatch_seconds;
+  // The run's own length: each frame's measured step (unequal subsets planned as they run); a longer
+  // shot: each level's mean.
+  if (g.frames == m.frames) c.frame_step_seconds = m.frame_steps;
 
   const double one = farm::predict_plan(g, c, 1, seams).makespan;
   std::vector<Row> rows;

@@ -32,6 +32,18 @@ void validate_costs(const GraphOptions& o, const Costs& c, int workers) {
   check_vector("vertical_start_seconds", c.vertical_start_seconds);
   require_cost("hierarchy_seconds", c.hierarchy_seconds);
   require_cost("dispatch_seconds", c.dispatch_seconds);
+  if (c.frame_step_seconds.empty()) return;
+  if (static_cast<int>(c.frame_step_seconds.size()) != o.levels)
+    throw std::invalid_argument("makespan: frame_step_seconds has " + std::to_string(c.frame_step_seconds.size()) +
+                                " levels, expected " + std::to_string(o.levels));
+  for (std::size_t l = 0; l < c.frame_step_seconds.size(); ++l) {
+    if (static_cast<int>(c.frame_step_seconds[l].size()) != o.frames + 1)
+      throw std::invalid_argument("makespan: frame_step_seconds[" + std::to_string(l) + "] has " +
+                                  std::to_string(c.frame_step_seconds[l].size()) + " frames, expected N + 1 = " +
+                                  std::to_string(o.frames + 1));
+    for (std::size_t t = 1; t < c.frame_step_seconds[l].size(); ++t)
+      require_cost("frame_step_seconds[" + std::to_string(l) + "][" + std::to_string(t) + "]", c.frame_step_seconds[l][t]);
+  }
 }
 
 enum class State { waiting, ready, running, done };
@@ -105,6 +117,13 @@ class Simulation {
 
   void push(double time, int task, int frame) { events_.push(Event{time, seq_++, task, frame}); }
 
+  // The step that solves frame `frame` of `level` (Costs::frame_step_seconds where given).
+  double step_cost(int level, int frame) const {
+    const auto l = static_cast<std::size_t>(level);
+    return costs_.frame_step_seconds.empty() ? costs_.step_seconds[l]
+                                             : costs_.frame_step_seconds[l][static_cast<std::size_t>(frame)];
+  }
+
   void dispatch(double now) {
     while (free_ > 0 && !ready_.empty()) {
       const int i = std::get<2>(*ready_.begin());
@@ -145,7 +164,7 @@ class Simulation {
       begin = std::max(begin, below);
     }
     t.in_flight = true;
-    push(begin + costs_.step_seconds[static_cast<std::size_t>(t.spec.level)], i, t.next);
+    push(begin + step_cost(t.spec.level, t.next), i, t.next);
   }
 
   void hierarchy_done(int i, double now) {
@@ -201,7 +220,7 @@ class Simulation {
         continue;
       }
       if (t.spec.level >= 1 && t.spec.first > 0) work += costs_.vertical_start_seconds[l];
-      work += (t.spec.last - t.spec.first) * costs_.step_seconds[l];
+      for (int f = t.spec.first + 1; f <= t.spec.last; ++f) work += step_cost(t.spec.level, f);
     }
     return work;
   }

@@ -13,6 +13,9 @@ namespace {
 // a quarter of the window's width from the even split as a quarter of it.
 constexpr double kContactWeight = 2.0;
 constexpr double kDistanceWeight = 0.25;
+// A frame whose activity is at most this (in units of the shot's median motion), without a contact
+// change, is acceptable as it is.
+constexpr double kAcceptableActivity = 1.5;
 
 double median_of_defined(const std::vector<double>& v) {
   std::vector<double> d;
@@ -98,13 +101,20 @@ std::vector<PlacedSeam> place_seams(const PreviewProfile& preview, int subsets) 
     PlacedSeam best;
     best.frame = -1;
     double best_score = INFINITY;
+    bool found_acceptable = false;
     for (int s = lo; s <= hi; ++s) {
       const double a = activity(s);
       const bool c = contact(s);
+      const bool acceptable = a <= kAcceptableActivity && !c;
       const double score = a + kContactWeight * c + kDistanceWeight * std::abs(s - even) / std::max(w, 1);
-      const bool better = score < best_score ||
-                          (score == best_score && std::abs(s - even) < std::abs(best.frame - even));
+      const int distance = std::abs(s - even), best_distance = std::abs(best.frame - even);
+      // Acceptable frames by distance to the even split (earlier first); others, only while none is
+      // acceptable, by score.
+      const bool better = acceptable ? !found_acceptable || distance < best_distance
+                                     : !found_acceptable && (score < best_score ||
+                                                             (score == best_score && distance < best_distance));
       if (!better) continue;
+      found_acceptable = found_acceptable || acceptable;
       best_score = score;
       best.frame = s;
       best.activity = a;

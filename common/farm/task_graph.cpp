@@ -20,9 +20,10 @@ void validate(const GraphOptions& o, const std::vector<int>& seams) {
   require_at_least("subsets", o.subsets, 1);
   require_at_least("preview_chunk", o.preview_chunk, 0);
   if (seams.empty()) return;
-  if (static_cast<int>(seams.size()) + 1 != o.subsets)
+  const int subsets = std::min(o.subsets, o.frames);  // K is clamped to N
+  if (static_cast<int>(seams.size()) + 1 != subsets)
     throw std::invalid_argument("task graph: " + std::to_string(seams.size()) + " seams for " +
-                                std::to_string(o.subsets) + " subsets (expected subsets - 1)");
+                                std::to_string(subsets) + " subsets (expected subsets - 1, K clamped to N)");
   for (std::size_t k = 0; k < seams.size(); ++k)
     if (seams[k] <= (k == 0 ? 0 : seams[k - 1]) || seams[k] >= o.frames)
       throw std::invalid_argument("task graph: seams must increase strictly within (0, " + std::to_string(o.frames) +

@@ -110,6 +110,25 @@ TEST(Makespan, VerticalStartOfASecondSubsetComputedByHand) {
   EXPECT_EQ(predict_plan({4, 2, 1, 4, false}, costs({1.0, 3.0}, {0.0, 2.0}, 0.0, 0.0), 3).makespan, 12.0);
 }
 
+// Per-frame step costs (a run's solve_seconds) replace the level's mean: N = 4, K = 2, 2 workers,
+// level 0 free (cost 0), level 1's steps cost 1, 1, 4, 4 s. Both subsets start at 0 (the preview is
+// done at once): (0,2] ends at 2, (2,4] at 8; the mean (2.5 s) would give 5 for both.
+TEST(Makespan, PerFrameStepCostsPlanUnequalSubsetsAsTheyRun) {
+  const GraphOptions o{4, 2, 2, 4, false};
+  Costs c = costs({0.0, 2.5}, {0.0, 0.0}, 0.0, 0.0);
+  EXPECT_EQ(predict_plan(o, c, 2).makespan, 5.0);
+  c.frame_step_seconds = {{0, 0, 0, 0, 0}, {0, 1, 1, 4, 4}};
+  const Plan p = predict_plan(o, c, 2);
+  EXPECT_EQ(p.makespan, 8.0);
+  EXPECT_DOUBLE_EQ(p.busy_fraction, 10.0 / (2 * 8.0));
+  c.frame_step_seconds = {{0, 0, 0, 0, 0}};
+  EXPECT_EQ(error_of(o, c, 2), "makespan: frame_step_seconds has 1 levels, expected 2");
+  c.frame_step_seconds = {{0, 0, 0, 0, 0}, {0, 1, 1, 4}};
+  EXPECT_EQ(error_of(o, c, 2), "makespan: frame_step_seconds[1] has 4 frames, expected N + 1 = 5");
+  c.frame_step_seconds = {{0, 0, 0, 0, 0}, {0, 1, -1, 4, 4}};
+  EXPECT_EQ(error_of(o, c, 2), "makespan: frame_step_seconds[1][2] must be finite and >= 0, got -1");
+}
+
 TEST(Makespan, SubsetsOnManyWorkersBeatOneSubsetWhenRefinementIsCostly) {
   const int N = 40;
   const double H = 1.0, d = 0.125;

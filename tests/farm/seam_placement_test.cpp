@@ -35,18 +35,22 @@ TEST(SeamPlacement, ACalmShotKeepsTheEvenSplitAndSaysSo) {
   }
 }
 
-TEST(SeamPlacement, ASeamOnAnImpactMovesToTheNearestCalmFrameOutsideIt) {
+TEST(SeamPlacement, ASeamOnAnImpactMovesToTheNearestOrdinaryFrameOutsideIt) {
   // 200 frames, K = 2: even split 100, window [75, 125]. An impact at frames 95..104 (motion 20x),
   // and a quieter stretch at 110..120 (motion 0.5): the seam's frames s - 1..s + 2 must avoid the
-  // impact, and the quieter stretch wins over the median frames next to the impact.
+  // impact: 92 or 106, and 106 is nearer; the quieter stretch farther on does not draw it (a seam
+  // moved farther than it must unbalances the subsets).
   PreviewProfile p = calm(200);
   for (int t = 95; t <= 104; ++t) p.motion[t] = 20.0;
   for (int t = 110; t <= 120; ++t) p.motion[t] = 0.5;
   const std::vector<PlacedSeam> s = place_seams(p, 2);
   ASSERT_EQ(s.size(), 1u);
   EXPECT_EQ(s[0].even, 100);
-  EXPECT_EQ(s[0].frame, 111);  // the first s with s - 1..s + 2 all in 110..120: 111
-  EXPECT_EQ(s[0].activity, 0.5);
+  EXPECT_EQ(s[0].frame, 106);
+  EXPECT_EQ(s[0].activity, 1.0);
+  // With no ordinary frame in the window (the impact covers it), the lowest score: the quietest.
+  for (int t = 70; t <= 130; ++t) p.motion[t] = t >= 110 && t <= 120 ? 1.8 : 20.0;
+  EXPECT_EQ(place_seams(p, 2)[0].frame, 111);
   EXPECT_NE(s[0].reason.find("moved from the even split 100 (motion 20.00x"), std::string::npos) << s[0].reason;
 }
 
@@ -145,6 +149,12 @@ TEST(SeamPlacement, JobTasksCutEveryRefinementLevelAtTheGivenSeams) {
   EXPECT_THROW(job_tasks(o, {71, 30}), std::invalid_argument);   // not increasing
   EXPECT_THROW(job_tasks(o, {30, 100}), std::invalid_argument);  // not inside (0, N)
   EXPECT_EQ(refinement_tasks(o, {30, 71}).size(), 6u);
+  // K above N is clamped to N, as without seams: 4 frames, K = 9, seams 1, 2, 3 (what place_seams gives).
+  GraphOptions short_job = o;
+  short_job.frames = 4;
+  short_job.subsets = 9;
+  EXPECT_EQ(refinement_tasks(short_job, {1, 2, 3}).size(), 8u);
+  EXPECT_EQ(place_seams(calm(4), 9).size(), 3u);
 }
 
 }  // namespace
