@@ -92,7 +92,8 @@ struct LevelTaskReport {
 // frame 0, the level's initial state, first when a = 0; a vertical start at a > 0 does not send its
 // upsampled frame a, which belongs to the task that solved it). Throws
 // std::invalid_argument for a task outside the scene (level, a, b) or missing / mis-sized inputs,
-// and UpsamplingFailed if a vertical start has no safe upsampling.
+// and UpsamplingFailed if a vertical start has no safe upsampling (an invalid_argument from inside
+// safe upsampling included: it refused one of its own intermediate states).
 LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hierarchy, const LevelTask& task,
                                  const LevelTaskInputs& inputs, const std::function<void(const FrameRecord&)>& sink,
                                  const LevelTaskOptions& options = {});

@@ -262,5 +262,25 @@ TEST(LevelTask, AStitchCarriesTheSingleRunIntoTheLaterSubsetThroughTheLevelsOwnS
   EXPECT_THROW(run(scene, h, {1, 20, 28}, &preview, none, bad), std::invalid_argument);
 }
 
+// cube-impact-sheet (scenes/stress): in the impact, safe upsampling of level 0's frame 30 reaches a
+// state with a touching pair and relax_gaps refuses it with std::invalid_argument. A vertical start
+// there must fail as UpsamplingFailed, the farm's refusal (it then continues the subset
+// horizontally); as an invalid_argument it failed the job on every worker.
+TEST(LevelTask, ATouchingPairInsideSafeUpsamplingIsARefusedVerticalStartNotABadTask) {
+  Scene scene = load_scene(test::source_dir() + "/scenes/stress/cube-impact-sheet.json");
+  scene.frames = 31;
+  const SceneHierarchy h = build_scene_hierarchy(scene);
+  Frames preview, subset;
+  run(scene, h, {0, 0, 31}, nullptr, preview);
+  try {
+    run(scene, h, {1, 30, 31}, &preview, subset);
+    ADD_FAILURE() << "the vertical start at frame 30 was not refused";
+  } catch (const UpsamplingFailed& e) {
+    EXPECT_NE(std::string(e.what()).find("safe upsampling: relax_gaps: the start has a touching"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_TRUE(subset.empty());
+}
+
 }  // namespace
 }  // namespace pd
