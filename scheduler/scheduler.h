@@ -50,6 +50,12 @@ constexpr int kLiveness = 3;
 // frame per step and reports one per step) while bounding what is queued to 16 frames per worker.
 constexpr int kFeedWindow = 16;
 
+// A refused vertical start moves its seam this many frames later, at most kMaxSeamMoves times, before
+// the subset continues horizontally instead (worker_reports.cpp). Refusals come in tight contact and
+// last a few frames (cube-impact-sheet's impact: frames 28-31 of level 1).
+constexpr int kSeamMoveFrames = 3;
+constexpr int kMaxSeamMoves = 2;
+
 // A stored task's kind and range, as the task graph's functions (farm/task_graph.h) take them.
 NewTask as_new_task(const TaskRow& t);
 

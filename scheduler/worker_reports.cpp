@@ -239,11 +239,22 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskFailed& m) 
   const TaskRow t = store_->task(m.task);
   if (m.failure == protocol::FailureKind::vertical_start_refused && t.kind == protocol::TaskKind::level &&
       t.level >= 1 && t.first >= 1 && !store_->continues_horizontally(t.id)) {
-    // Deterministic (the same frames upsample the same way on every worker): rather than retrying
-    // and failing the job, the subset waits for the one before it and continues from its frames,
-    // as if the seam were not there (the level then loses that seam's parallelism, not the job).
+    // Deterministic (the same frames upsample the same way on every worker): rather than retrying,
+    // the seam moves kSeamMoveFrames later, where the start may be made (a bridge task continues the
+    // level horizontally over the frames it leaves), up to kMaxSeamMoves times; then the subset
+    // waits for the one before it and continues from its frames, as if the seam were not there (the
+    // level then loses that seam's parallelism, not the job).
     const int64_t attempt = s->attempt;
+    const int moved_to = t.first + kSeamMoveFrames;
     end_attempt_of(*s);
+    if (store_->refused_starts(t.id) < kMaxSeamMoves && moved_to < t.last) {
+      const int64_t bridge = store_->move_seam(t.id, attempt, moved_to, m.message);
+      event("seam_moved", t.job, t.id, s->worker,
+            "level " + std::to_string(t.level) + " seam " + std::to_string(t.first) + " -> " + std::to_string(moved_to) +
+                " (task " + std::to_string(bridge) + " bridges (" + std::to_string(t.first) + ", " +
+                std::to_string(moved_to) + "] horizontally): " + m.message.substr(0, 300));
+      return;
+    }
     store_->continue_horizontally(t.id, attempt, m.message);
     event("task_continues_horizontally", t.job, t.id, s->worker,
           "attempt " + std::to_string(attempt) + ": " + m.message.substr(0, 300));

@@ -49,6 +49,9 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--refuse-vertical-starts", options.refuse_vertical_starts,
                "Fault injection for tests: every vertical start fails as a refused safe upsampling");
+  app.add_option("--refuse-vertical-starts-before", options.refuse_vertical_starts_before,
+                 "Fault injection for tests: vertical starts at frames before F fail as refused safe upsamplings")
+      ->check(CLI::PositiveNumber);
   app.add_option("--server-key", options.server_key_file,
                  "The scheduler's public key file (its PREFIX.pub); with --key, for a scheduler beyond loopback");
   app.add_option("--key", options.key_file, "This worker's key pair (PREFIX.key from pd keys); with --server-key");

@@ -69,12 +69,13 @@ void HierarchyCache::put(const std::string& hash, std::shared_ptr<const SceneHie
 bool HierarchyCache::has(const std::string& hash) const { return find(hash) != nullptr; }
 
 TaskRunner::TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache, int fail_level,
-                       bool refuse_vertical_starts)
+                       bool refuse_vertical_starts, int refuse_vertical_starts_before)
     : wake_fd_(wake_fd),
       scratch_dir_(std::move(scratch_dir)),
       cache_(cache),
       fail_level_(fail_level),
-      refuse_vertical_starts_(refuse_vertical_starts) {
+      refuse_vertical_starts_(refuse_vertical_starts),
+      refuse_vertical_starts_before_(refuse_vertical_starts_before) {
   fs::create_directories(scratch_dir_);
 }
 
@@ -265,8 +266,11 @@ void TaskRunner::run_level(const protocol::AssignTask& task) {
   LevelTaskInputs inputs;
   if (task.level >= 1) inputs.below = [this](int t) { return wait_below(t); };
   // A vertical start: a later subset of a refinement level that does not continue from own frames.
-  if (refuse_vertical_starts_ && task.level >= 1 && task.start > 0 && !task.own_start)
-    throw UpsamplingFailed("injected refusal: this worker refuses every vertical start (--refuse-vertical-starts)");
+  const bool vertical = task.level >= 1 && task.start > 0 && !task.own_start;
+  if (vertical && (refuse_vertical_starts_ ||
+                   (refuse_vertical_starts_before_ > 0 && task.start < refuse_vertical_starts_before_)))
+    throw UpsamplingFailed("injected refusal: this worker refuses vertical starts (--refuse-vertical-starts" +
+                           std::string(refuse_vertical_starts_ ? "" : "-before") + ")");
   if (task.own_before && task.own_start) {
     inputs.own_before = to_vector(*task.own_before);
     inputs.own_start = to_vector(*task.own_start);

@@ -39,9 +39,10 @@ class TaskRunner {
  public:
   // scratch_dir: where scene files and hierarchy blobs are written (created when missing).
   // Fault injection for tests: fail_level >= 0: every level task of that level fails at once;
-  // refuse_vertical_starts: every vertical start fails as a refused safe upsampling.
+  // refuse_vertical_starts: every vertical start fails as a refused safe upsampling;
+  // refuse_vertical_starts_before > 0: only those at a frame before it do.
   TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache, int fail_level = -1,
-             bool refuse_vertical_starts = false);
+             bool refuse_vertical_starts = false, int refuse_vertical_starts_before = 0);
   ~TaskRunner();  // cancels and joins
   TaskRunner(const TaskRunner&) = delete;
   TaskRunner& operator=(const TaskRunner&) = delete;
@@ -74,6 +75,7 @@ class TaskRunner {
   HierarchyCache& cache_;
   int fail_level_ = -1;
   bool refuse_vertical_starts_ = false;
+  int refuse_vertical_starts_before_ = 0;
   mutable std::mutex mutex_;
   std::condition_variable below_arrived_;
   std::map<int, Eigen::VectorXd> below_;  // frames of level l-1 fed to the running attempt

@@ -239,7 +239,8 @@ int run_worker(const WorkerOptions& options, const std::atomic<bool>& stop) {
   const auto timeout = std::chrono::duration_cast<std::chrono::milliseconds>(
       std::chrono::duration<double>(options.scheduler_timeout_s));
   {
-    TaskRunner runner(wake_fd, options.scratch_dir, cache, options.fail_level, options.refuse_vertical_starts);
+    TaskRunner runner(wake_fd, options.scratch_dir, cache, options.fail_level, options.refuse_vertical_starts,
+                      options.refuse_vertical_starts_before);
     while (!stop) {
       bool reconnect;
       bool welcomed;

@@ -23,6 +23,8 @@ struct WorkerOptions {
   // Fault injection for the farm's tests: every vertical start is refused as safe upsampling refuses
   // one (no scene of ours is refused since safe upsampling projects strain limits).
   bool refuse_vertical_starts = false;
+  // Fault injection: refuse only the vertical starts at frames before this one (0: no such limit).
+  int refuse_vertical_starts_before = 0;
   // CURVE: --server-key (the scheduler's .pub) and --key (this worker's pair), both or neither, read
   // by main() into `curve` and applied to every session's socket before it connects.
   std::string server_key_file, key_file;

@@ -173,7 +173,9 @@ void check_new_task(const Db& db, const std::string& where, const NewTask& t, in
 
 // Inserts `tasks` (in their order, so ids follow it) with their dependencies, as waiting; the caller
 // promotes them.
-void insert_tasks(Db& db, const char* what, int64_t job, const JobInfo& info, const std::vector<NewTask>& tasks) {
+// Returns the new tasks' ids, in the order given.
+std::vector<int64_t> insert_tasks(Db& db, const char* what, int64_t job, const JobInfo& info,
+                                  const std::vector<NewTask>& tasks) {
   if (tasks.empty()) db.fail_with(std::string(what) + ": job " + str(job) + ": no tasks given");
   Statement existing(db, "SELECT id FROM tasks WHERE job_id = ?1 AND kind = ?2 ORDER BY id");
   int64_t hierarchy = existing.bind_all(job, to_string(TaskKind::hierarchy)).step() ? existing.column_int64(0) : 0;
@@ -206,6 +208,7 @@ void insert_tasks(Db& db, const char* what, int64_t job, const JobInfo& info, co
       needs.reset();
     }
   }
+  return ids;
 }
 
 // The tasks of a job in the given order (an ORDER BY list of this file, never a value).
@@ -498,6 +501,53 @@ void TaskStore::continue_horizontally(int64_t task, int64_t attempt, const std::
     set_task_state(db, task, TaskState::waiting, "continues horizontally: " + message, false);
     free_worker(db, t.worker, false);
     promote(db, t.job);
+  });
+}
+
+int64_t TaskStore::move_seam(int64_t task, int64_t attempt, int new_first, const std::string& message) {
+  Db& db = impl_->db;
+  int64_t bridge = 0;
+  impl_->write("move_seam", [&] {
+    const TaskRow t = read_task(db, task);
+    if (t.state != TaskState::running || t.attempt != attempt)
+      db.fail_with("move_seam: attempt " + str(attempt) + " is not task " + str(task) + "'s running attempt");
+    if (t.kind != TaskKind::level || t.level < 1 || t.first < 1)
+      db.fail_with("move_seam: task " + str(task) + " (level " + str(t.level) + ", first " + str(t.first) +
+                   ") does not start vertically");
+    if (new_first <= t.first || new_first >= t.last)
+      db.fail_with("move_seam: task " + str(task) + " (" + str(t.first) + ", " + str(t.last) + "]: the new seam " +
+                   str(new_first) + " is not inside it");
+    run_sql(db, "UPDATE attempts SET ended = ?2, outcome = ?3, message = ?4 WHERE id = ?1", attempt, now(),
+            kVerticalRefused, message);
+    run_sql(db, "UPDATE tasks SET first = ?2 WHERE id = ?1", task, new_first);
+    run_sql(db, "DELETE FROM task_frames WHERE task_id = ?1", task);
+    std::vector<int> below = {new_first - 1, new_first};
+    if (t.level >= 2 && t.last > new_first + 1) below.push_back(new_first + 1);  // task_graph.h's feeder rule
+    for (const int frame : below)
+      run_sql(db, "INSERT INTO task_frames(task_id, level, frame) VALUES(?1, ?2, ?3)", task, t.level - 1, frame);
+    set_task_state(db, task, TaskState::waiting,
+                   "seam moved from " + str(t.first) + " to " + str(new_first) + ": " + message, false);
+    free_worker(db, t.worker, false);
+    NewTask b;
+    b.kind = TaskKind::level;
+    b.level = t.level;
+    b.first = t.first;
+    b.last = new_first;
+    Statement after(db, "SELECT COUNT(*) FROM task_after WHERE task_id = ?1");
+    b.after_hierarchy = after.bind_all(task).step() && after.column_int(0) > 0;  // as the task it bridges for
+    b.needs = {FrameKey{t.level, t.first - 1}, FrameKey{t.level, t.first}};
+    bridge = insert_tasks(db, "move_seam", t.job, job_info(db, t.job), {b}).front();
+    promote(db, t.job);
+  });
+  return bridge;
+}
+
+int TaskStore::refused_starts(int64_t task) const {
+  Db& db = impl_->db;
+  return impl_->read("refused_starts", [&] {
+    Statement st(db, "SELECT COUNT(*) FROM attempts WHERE task_id = ?1 AND outcome = ?2");
+    st.bind_all(task, kVerticalRefused).step();
+    return st.column_int(0);
   });
 }
 

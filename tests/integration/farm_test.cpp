@@ -200,13 +200,23 @@ TEST_F(FarmTest, TwoSubsetsKeepEveryFrameIntersectionFreeAndEqualToOneSubsetBefo
   }
 }
 
-// A subset whose vertical start is refused continues horizontally from the subset before it, so the
-// job ends done instead of failing. The flag at 20 frames, K = 2, on workers that refuse every
-// vertical start (pd-worker --refuse-vertical-starts: since safe upsampling projects strain limits,
-// no scene of ours is refused, the flag's frame 10 included, LevelTask.AVerticalStartWhose
-// ProlongationIsBeyondTheStrainLimitStartsBelowIt). Each level's subset (s, 20] (s the seam placed
-// from the preview, near 10) then waits for (0, s] and continues from its frames s - 1 and s: every
-// level has the single run's frames bit for bit.
+// The tasks of level l of a job's status, by first frame.
+std::vector<json> level_tasks(const json& status, int level) {
+  std::vector<json> out;
+  for (const json& t : status.at("tasks"))
+    if (t.at("kind") == "level" && t.at("level") == level) out.push_back(t);
+  std::sort(out.begin(), out.end(), [](const json& x, const json& y) { return x.at("first") < y.at("first"); });
+  return out;
+}
+
+// A subset whose vertical start is refused moves its seam 3 frames later, twice, each time with a
+// bridge task continuing the level horizontally over the frames left; refused a third time, it
+// continues horizontally from the bridges' frames, so the job ends done instead of failing. The flag
+// at 20 frames, K = 2, on workers that refuse every vertical start (pd-worker
+// --refuse-vertical-starts: since safe upsampling projects strain limits none of the flag's starts is
+// refused, LevelTask.AVerticalStartWhoseProlongationIsBeyondTheStrainLimitStartsBelowIt). Every task
+// after the seam s then continues horizontally: (s, s+3], (s+3, s+6], (s+6, 20], and every level has
+// the single run's frames bit for bit.
 TEST_F(FarmTest, ASubsetWhoseVerticalStartIsRefusedContinuesHorizontallyAndTheJobEndsDone) {
   constexpr int kFrames = 20;
   test::FarmOptions options;
@@ -217,19 +227,55 @@ TEST_F(FarmTest, ASubsetWhoseVerticalStartIsRefusedContinuesHorizontallyAndTheJo
 
   const json status = job_status(farm, job);
   expect_every_level_complete(status, kFrames);
-  std::set<int> horizontal_levels;
-  for (const json& t : status.at("tasks")) {
-    if (!t.at("horizontal").get<bool>()) continue;
-    horizontal_levels.insert(t.at("level").get<int>());
-    EXPECT_NEAR(t.at("first").get<int>(), kFrames / 2, kFrames / 8) << t.dump();  // the placed seam
-    EXPECT_EQ(t.at("attempts"), 2) << t.dump();  // the refused one and the horizontal one
+  for (int l = 1; l <= 2; ++l) {
+    const std::vector<json> tasks = level_tasks(status, l);
+    ASSERT_EQ(tasks.size(), 4u) << status.dump();
+    const int seam = tasks[1].at("first").get<int>();
+    EXPECT_NEAR(seam, kFrames / 2, kFrames / 8) << "the placed seam";
+    for (int k = 1; k <= 3; ++k) {
+      EXPECT_TRUE(tasks[k].at("horizontal").get<bool>()) << tasks[k].dump();
+      EXPECT_EQ(tasks[k].at("first"), seam + 3 * (k - 1)) << tasks[k].dump();
+    }
+    EXPECT_EQ(tasks[3].at("attempts"), 4) << tasks[3].dump();  // three refused starts, then horizontal
   }
-  EXPECT_EQ(horizontal_levels, (std::set<int>{1, 2})) << status.dump();
+  EXPECT_EQ(test::log_events(farm.scheduler_log(), "seam_moved").size(), 4u);
   EXPECT_EQ(test::log_events(farm.scheduler_log(), "task_continues_horizontally").size(), 2u);
   const FrameReader got(farm.dir() + "/job.h5"), want(ref_path);
   ASSERT_EQ(got.num_levels(), 3);
   expect_complete_and_intersection_free(got);
   for (int l = 0; l < got.num_levels(); ++l) expect_identical_frames(got, want, l, 0, kFrames);
+}
+
+// A refused vertical start whose moved seam can be made: workers that refuse vertical starts before
+// frame 13 (pd-worker --refuse-vertical-starts-before 13), the flag at 20 frames, K = 2, the seam
+// placed near 10. Each level's later subset moves 3 frames at a time until it starts at 13 or later,
+// vertically; bridges continue the level over the frames between, horizontally. No subset gives up
+// its vertical start; the job ends done, intersection-free, each level the single run's frames up to
+// its moved seam bit for bit (the bridges continue the single run).
+TEST_F(FarmTest, ARefusedVerticalStartMovesItsSeamToAFrameWhereItCanBeMade) {
+  constexpr int kFrames = 20;
+  test::FarmOptions options;
+  options.worker_args = {"--refuse-vertical-starts-before", "13"};
+  Farm& farm = start_farm(options, "farm_moved_seam");
+  const std::string ref_path = farm.dir() + "/ref.h5";
+  const int64_t job = run_beside_reference(farm, scene_path("flag.json"), kFrames, 2);
+
+  const json status = job_status(farm, job);
+  expect_every_level_complete(status, kFrames);
+  EXPECT_TRUE(test::log_events(farm.scheduler_log(), "task_continues_horizontally").empty());
+  EXPECT_GE(test::log_events(farm.scheduler_log(), "seam_moved").size(), 2u);
+  const FrameReader got(farm.dir() + "/job.h5"), want(ref_path);
+  expect_complete_and_intersection_free(got);
+  for (int l = 1; l <= 2; ++l) {
+    const std::vector<json> tasks = level_tasks(status, l);
+    ASSERT_GE(tasks.size(), 3u) << status.dump();
+    const json& last = tasks.back();
+    EXPECT_GE(last.at("first").get<int>(), 13) << last.dump();
+    EXPECT_LE(last.at("first").get<int>(), 18) << last.dump();
+    EXPECT_FALSE(last.at("horizontal").get<bool>()) << last.dump();  // it started vertically
+    for (std::size_t k = 1; k + 1 < tasks.size(); ++k) EXPECT_TRUE(tasks[k].at("horizontal").get<bool>()) << tasks[k].dump();
+    expect_identical_frames(got, want, l, 0, last.at("first").get<int>());
+  }
 }
 
 TEST_F(FarmTest, OneWorkerAndTwoWorkersGiveIdenticalFramesWithTwoSubsets) {

@@ -835,6 +835,51 @@ TEST_F(TaskStoreTest, ARefusedVerticalStartWaitsForTheLevelsOwnFramesAndCountsAs
                 " (level 1, first 0) does not start vertically");
 }
 
+// A refused vertical start whose seam moves: subset (3, 8] of level 1, refused at 3, becomes (5, 8],
+// waiting for level 0's frames 4 and 5, and a bridge (3, 5] of level 1 continues horizontally from
+// level 1's frames 2 and 3; the refusal counts against neither task nor worker.
+TEST_F(TaskStoreTest, AMovedSeamShrinksTheSubsetAndAddsABridgeThatContinuesHorizontally) {
+  TaskStore s(path_);
+  const int64_t job = s.add_job(make_job(8, 2), {level_task(0, 0, 8), level_task(1, 0, 3, {{0, 0}}),
+                                                  level_task(1, 3, 8, {{0, 2}, {0, 3}})});
+  const std::vector<TaskRow> t = s.tasks(job);
+  for (int f = 0; f <= 3; ++f) s.record_frame(job, {0, f}, FrameData{});
+  s.claim_next(s.add_worker("w0", "host", "1.0", 1));
+  s.claim_next(s.add_worker("w1", "host", "1.0", 1));
+  const int64_t w = s.add_worker("w", "host", "1.0", 1);
+  const Claim c = *s.claim_next(w);
+  ASSERT_EQ(c.task.id, t[2].id);
+  EXPECT_EQ(s.refused_starts(t[2].id), 0);
+  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 8, "m"); }),
+            path_ + ": move_seam: task " + std::to_string(t[2].id) + " (3, 8]: the new seam 8 is not inside it");
+  const int64_t bridge = s.move_seam(t[2].id, c.attempt, 5, "no valid perturbation");
+  EXPECT_EQ(s.refused_starts(t[2].id), 1);
+  const TaskRow moved = s.task(t[2].id);
+  EXPECT_EQ(moved.first, 5);
+  EXPECT_EQ(moved.last, 8);
+  EXPECT_EQ(moved.state, TaskState::waiting);
+  EXPECT_EQ(moved.reason, "seam moved from 3 to 5: no valid perturbation");
+  EXPECT_FALSE(s.continues_horizontally(t[2].id));
+  const TaskRow b = s.task(bridge);
+  EXPECT_EQ(b.level, 1);
+  EXPECT_EQ(b.first, 3);
+  EXPECT_EQ(b.last, 5);
+  EXPECT_TRUE(s.continues_horizontally(bridge));
+  EXPECT_EQ(s.worker(w).state, "idle");
+  EXPECT_TRUE(s.may_run(t[2].id, w));
+  s.record_frame(job, {0, 4}, FrameData{});
+  EXPECT_EQ(s.task(t[2].id).state, TaskState::waiting);  // level 0's frame 5 still missing
+  s.record_frame(job, {0, 5}, FrameData{});
+  EXPECT_EQ(s.task(t[2].id).state, TaskState::ready);
+  EXPECT_EQ(s.task(bridge).state, TaskState::waiting);  // level 1's frames 2 and 3 missing
+  s.record_frame(job, {1, 2}, FrameData{});
+  s.record_frame(job, {1, 3}, FrameData{});
+  EXPECT_EQ(s.task(bridge).state, TaskState::ready);
+  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 6, "m"); }),
+            path_ + ": move_seam: attempt " + std::to_string(c.attempt) + " is not task " + std::to_string(t[2].id) +
+                "'s running attempt");
+}
+
 TEST_F(TaskStoreTest, FailAttemptRefusesAnAttemptThatIsNotTheTasksRunningOne) {
   TaskStore s(path_);
   const int64_t job = s.add_job(make_job(2, 1), {level_task(0, 0, 2)});
