@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "hierarchy/self_intersection_cgal.h"
 #include "physics/guide.h"
 #include "physics/inertia.h"
 
@@ -106,6 +107,13 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
       // subset horizontally instead of failing the job on every worker.
       throw UpsamplingFailed(std::string("safe upsampling: ") + e.what());
     }
+    // The contact promise, checked where safe upsampling breaks it: a crossing in the start state
+    // would be kept by every step after it (the barrier only keeps apart what is apart).
+    if (up.contact)
+      if (const int crossing = count_self_intersections(as_rows(x), hierarchy.levels[static_cast<std::size_t>(l)].rest.F);
+          crossing > 0)
+        throw UpsamplingFailed("safe upsampling: the upsampled state intersects itself (" + std::to_string(crossing) +
+                               " face pairs); the level cannot start from it");
     v = below_level->to_next->U_stacked() * ((xa - xb) / h);
     report.vertical_start = true;
   }

@@ -93,7 +93,8 @@ struct LevelTaskReport {
 // upsampled frame a, which belongs to the task that solved it). Throws
 // std::invalid_argument for a task outside the scene (level, a, b) or missing / mis-sized inputs,
 // and UpsamplingFailed if a vertical start has no safe upsampling (an invalid_argument from inside
-// safe upsampling included: it refused one of its own intermediate states).
+// safe upsampling included: it refused one of its own intermediate states; and an upsampled state
+// that intersects itself, hierarchy/self_intersection_cgal.h).
 LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hierarchy, const LevelTask& task,
                                  const LevelTaskInputs& inputs, const std::function<void(const FrameRecord&)>& sink,
                                  const LevelTaskOptions& options = {});
