@@ -77,7 +77,8 @@ TEST(SceneHierarchies, EveryExampleSceneBuildsItsHierarchyWithExactRestRecovery)
 // The benchmark's larger variants (bench/scenes/, too slow to simulate in CI) at least load and
 // build their hierarchies, so a key renamed in the scene format cannot break them unnoticed.
 TEST(SceneHierarchies, EveryBenchmarkVariantLoadsAndBuildsItsHierarchy) {
-  const std::vector<std::string> variants = {"cube-trampoline-large", "flag-large"};
+  const std::vector<std::string> variants = {"cube-trampoline-large", "cube-trampoline-large-3s", "drape-25k", "flag-large",
+                                             "flag-large-10s"};
   std::vector<std::string> found;
   for (const auto& e : std::filesystem::directory_iterator(test::source_dir() + "/bench/scenes"))
     if (e.path().extension() == ".json") found.push_back(e.path().stem().string());
