@@ -1,8 +1,8 @@
 #pragma once
 // Strain limits by projection: moves the free vertices of a mesh until every limited triangle's
-// largest principal stretch is at or below its goal, by iterated per-triangle projections (the
-// isotropic strain limiting of Wang, O'Brien & Ramamoorthi 2010, "Multi-resolution isotropic strain
-// limiting", in its Jacobi form).
+// largest principal stretch is at or below its goal, by iterated per-triangle projections (in the
+// manner of the isotropic strain limiting of Wang, O'Brien & Ramamoorthi 2010, "Multi-resolution
+// isotropic strain limiting", swept Gauss-Seidel).
 //
 // Why: safe upsampling (safe_upsampling.h, step 7) must hand a refinement level a start state below
 // its strain limits, since the level's strain-limit barrier is infinite beyond them. The prolonged
@@ -12,14 +12,15 @@
 // it often did not reach it at all (every vertical start of the flag was refused). A projection
 // iteration costs a pass over the violating triangles.
 //
-// One iteration: for every limited triangle f with sigma_max > goal_f, its deformation gradient
-// F (3x2, see physics/strain_limit.h) is clamped to F' = F V diag(min(1, goal_f / sigma_i)) V^T
-// (V: the eigenvectors of F^T F; F' has F's rotation and its singular values clamped to goal_f),
-// and its vertices' targets are x'_k = c + F' (p_k - p_mean), c the triangle's deformed centroid and
-// p_k its rest vertices in the rest frame. Each free vertex then moves to the rest-area-weighted mean
-// of its violating triangles' targets for it (Jacobi: the order of the triangles changes nothing).
-// Fixed vertices never move. Stops when every limited triangle meets its goal, when the worst stretch
-// stops falling, or after max_iterations.
+// One iteration sweeps the limited triangles in order. A triangle f with sigma_max > goal_f has its
+// deformation gradient F (3x2, see physics/strain_limit.h) clamped to F' = F V diag(s_i) V^T (V: the
+// eigenvectors of F^T F, s_i = goal_f (1 - 1e-3) / sigma_i where sigma_i > goal_f, else 1: F's
+// rotation with its larger singular values just below the goal), the clamped triangle
+// F' (p_k - p_mean) (p_k: its rest vertices in the rest frame) is placed onto the current vertices by
+// weighted Procrustes (a vertex that may not move weighs 1e6 times a free one, so the triangle is
+// fitted onto its fixed vertices, rotation included), and its free vertices move there at once
+// (Gauss-Seidel: later triangles see the move). Fixed vertices never move. Stops when every limited
+// triangle meets its goal, when the worst stretch stops falling, or after max_iterations.
 //
 // Not an energy minimisation: the result is a nearby state below the limits, which the level's own
 // solve then moves. Contact is not seen here: the caller follows the recorded iterates with CCD
