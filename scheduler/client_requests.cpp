@@ -99,8 +99,8 @@ protocol::Reply Scheduler::serve(protocol::RefineJob& m) {
     // Pending until the preview is stored whole (now, if it is): seams are placed from it (seams.cpp).
     add_pending_refinement(store_->job(m.job));
     if (refinement_pending(store_->job(m.job)))
-      return protocol::Accepted{m.job, "refinement levels added, K = " + std::to_string(m.subsets) +
-                                           ", once the preview is stored (seams are placed from it)"};
+      return protocol::Accepted{m.job, "the refinement levels (K = " + std::to_string(m.subsets) +
+                                           ") are added once the preview is stored, with seams placed from it"};
     int added = 0;
     for (const TaskRow& t : store_->tasks(m.job)) added += t.level >= 1 ? 1 : 0;
     return protocol::Accepted{m.job, "added " + std::to_string(added) + " refinement tasks, seams placed from the preview"};
