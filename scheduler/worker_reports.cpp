@@ -248,7 +248,8 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskFailed& m) 
     const int moved_to = t.first + kSeamMoveFrames;
     end_attempt_of(*s);
     if (store_->refused_starts(t.id) < kMaxSeamMoves && moved_to < t.last) {
-      const int64_t bridge = store_->move_seam(t.id, attempt, moved_to, m.message);
+      const int64_t bridge =
+          store_->move_seam(t.id, attempt, moved_to, farm::subset_needs(t.level, moved_to, t.last), m.message);
       event("seam_moved", t.job, t.id, s->worker,
             "level " + std::to_string(t.level) + " seam " + std::to_string(t.first) + " -> " + std::to_string(moved_to) +
                 " (task " + std::to_string(bridge) + " bridges (" + std::to_string(t.first) + ", " +

@@ -63,24 +63,30 @@ void add_refinement(const GraphOptions& o, const std::vector<int>& seams, std::v
     for (int k = 0; k < K; ++k) {
       const int a = boundary(k), b = boundary(k + 1);
       NewTask t = level_task(level, a, b);
-      // The first step reads level l-1's frames a and a-1 (frame -1 meaning frame 0); a vertical start
-      // upsamples frame a and takes its velocity from frames a-1 and a.
-      t.needs.push_back(FrameKey{level - 1, std::max(a - 1, 0)});
-      if (a > 0) t.needs.push_back(FrameKey{level - 1, a});
-      // Level l >= 2, a > 0: also wait for level l-1's frame a + 1, i.e. for the task that feeds this
-      // one to have started. Dispatched on frames a - 1 and a alone (the last ones of level l-1's
-      // previous subset), it can take a worker before its feeder (a, b] of level l-1 is ready, then
-      // hold that worker idle while the feeder waits for one: replays showed more workers making a
-      // job up to 16% slower, and a subset of level 1 blocked until the preview ended. Level 1 needs
-      // no such rule: level 0's chain is running from its frame 0 on. Cost: at most the task's
-      // first step overlapping its feeder's first step. b = a + 1 is fed only stored frames.
-      if (level >= 2 && a > 0 && b > a + 1) t.needs.push_back(FrameKey{level - 1, a + 1});
+      t.needs = subset_needs(level, a, b);
       out.push_back(std::move(t));
     }
   }
 }
 
 }  // namespace
+
+std::vector<FrameKey> subset_needs(int level, int first, int last) {
+  const int a = first, b = last;
+  // The first step reads level l-1's frames a and a-1 (frame -1 meaning frame 0); a vertical start
+  // upsamples frame a and takes its velocity from frames a-1 and a.
+  std::vector<FrameKey> needs = {FrameKey{level - 1, std::max(a - 1, 0)}};
+  if (a > 0) needs.push_back(FrameKey{level - 1, a});
+  // Level l >= 2, a > 0: also wait for level l-1's frame a + 1, i.e. for the task that feeds this
+  // one to have started. Dispatched on frames a - 1 and a alone (the last ones of level l-1's
+  // previous subset), it can take a worker before its feeder (a, b] of level l-1 is ready, then
+  // hold that worker idle while the feeder waits for one: replays showed more workers making a
+  // job up to 16% slower, and a subset of level 1 blocked until the preview ended. Level 1 needs
+  // no such rule: level 0's chain is running from its frame 0 on. Cost: at most the task's
+  // first step overlapping its feeder's first step. b = a + 1 is fed only stored frames.
+  if (level >= 2 && a > 0 && b > a + 1) needs.push_back(FrameKey{level - 1, a + 1});
+  return needs;
+}
 
 // Chunks do not add parallelism (the chain is sequential) nor change the frames (a horizontal
 // continuation repeats the single run bit for bit); they bound how long one task holds a worker and

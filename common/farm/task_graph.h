@@ -58,6 +58,11 @@ struct FrameRange {
   int last = 0;
 };
 
+// The frames a refinement subset (a, b] of level l >= 1 needs stored before it is dispatched (the
+// rule above: level l-1's frames max(a-1, 0) and a, and a + 1 on levels >= 2 when b > a + 1). Used
+// for the job's graph and for a subset whose seam moved (TaskStore::move_seam).
+std::vector<pd::FrameKey> subset_needs(int level, int first, int last);
+
 // The frames of level l - 1 a level-l task (a, b], l >= 1, is fed: max(a - 1, 0) .. b - 1 (the
 // protocol's BelowFrame messages). nullopt for the hierarchy task and level-0 tasks. Throws
 // std::invalid_argument for a level task with level < 0, first < 0 or last <= first.

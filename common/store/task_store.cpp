@@ -211,6 +211,22 @@ std::vector<int64_t> insert_tasks(Db& db, const char* what, int64_t job, const J
   return ids;
 }
 
+// The running attempt `attempt` of `task` found no safe upsampling for its vertical start
+// (continue_horizontally, move_seam): checked to be that, closed as "vertical start refused" (a
+// failure of neither task nor worker), the worker freed. Returns the task as it was.
+TaskRow close_refused_start(Db& db, const char* what, int64_t task, int64_t attempt, const std::string& message) {
+  const TaskRow t = read_task(db, task);
+  if (t.state != TaskState::running || t.attempt != attempt)
+    db.fail_with(std::string(what) + ": attempt " + str(attempt) + " is not task " + str(task) + "'s running attempt");
+  if (t.kind != TaskKind::level || t.level < 1 || t.first < 1)
+    db.fail_with(std::string(what) + ": task " + str(task) + " (level " + str(t.level) + ", first " + str(t.first) +
+                 ") does not start vertically");
+  run_sql(db, "UPDATE attempts SET ended = ?2, outcome = ?3, message = ?4 WHERE id = ?1", attempt, now(),
+          kVerticalRefused, message);
+  free_worker(db, t.worker, false);
+  return t;
+}
+
 // The tasks of a job in the given order (an ORDER BY list of this file, never a value).
 std::vector<TaskRow> job_tasks(Db& db, int64_t job, const char* order) {
   Statement st(db, std::string("SELECT ") + kTaskColumns + " FROM tasks t WHERE t.job_id = ?1 ORDER BY " + order);
@@ -486,48 +502,32 @@ FailOutcome TaskStore::fail_attempt(int64_t task, int64_t attempt, const std::st
 void TaskStore::continue_horizontally(int64_t task, int64_t attempt, const std::string& message) {
   Db& db = impl_->db;
   impl_->write("continue_horizontally", [&] {
-    const TaskRow t = read_task(db, task);
-    if (t.state != TaskState::running || t.attempt != attempt)
-      db.fail_with("continue_horizontally: attempt " + str(attempt) + " is not task " + str(task) +
-                   "'s running attempt");
-    if (t.kind != TaskKind::level || t.level < 1 || t.first < 1)
-      db.fail_with("continue_horizontally: task " + str(task) + " (level " + str(t.level) + ", first " +
-                   str(t.first) + ") does not start vertically");
-    run_sql(db, "UPDATE attempts SET ended = ?2, outcome = ?3, message = ?4 WHERE id = ?1", attempt, now(),
-            kVerticalRefused, message);
+    const TaskRow t = close_refused_start(db, "continue_horizontally", task, attempt, message);
     for (const int frame : {t.first - 1, t.first})
       run_sql(db, "INSERT OR IGNORE INTO task_frames(task_id, level, frame) VALUES(?1, ?2, ?3)", task, t.level,
               frame);
     set_task_state(db, task, TaskState::waiting, "continues horizontally: " + message, false);
-    free_worker(db, t.worker, false);
     promote(db, t.job);
   });
 }
 
-int64_t TaskStore::move_seam(int64_t task, int64_t attempt, int new_first, const std::string& message) {
+int64_t TaskStore::move_seam(int64_t task, int64_t attempt, int new_first, const std::vector<FrameKey>& needs,
+                             const std::string& message) {
   Db& db = impl_->db;
   int64_t bridge = 0;
   impl_->write("move_seam", [&] {
     const TaskRow t = read_task(db, task);
-    if (t.state != TaskState::running || t.attempt != attempt)
-      db.fail_with("move_seam: attempt " + str(attempt) + " is not task " + str(task) + "'s running attempt");
-    if (t.kind != TaskKind::level || t.level < 1 || t.first < 1)
-      db.fail_with("move_seam: task " + str(task) + " (level " + str(t.level) + ", first " + str(t.first) +
-                   ") does not start vertically");
-    if (new_first <= t.first || new_first >= t.last)
+    if (t.state == TaskState::running && t.attempt == attempt && (new_first <= t.first || new_first >= t.last))
       db.fail_with("move_seam: task " + str(task) + " (" + str(t.first) + ", " + str(t.last) + "]: the new seam " +
                    str(new_first) + " is not inside it");
-    run_sql(db, "UPDATE attempts SET ended = ?2, outcome = ?3, message = ?4 WHERE id = ?1", attempt, now(),
-            kVerticalRefused, message);
+    close_refused_start(db, "move_seam", task, attempt, message);
     run_sql(db, "UPDATE tasks SET first = ?2 WHERE id = ?1", task, new_first);
     run_sql(db, "DELETE FROM task_frames WHERE task_id = ?1", task);
-    std::vector<int> below = {new_first - 1, new_first};
-    if (t.level >= 2 && t.last > new_first + 1) below.push_back(new_first + 1);  // task_graph.h's feeder rule
-    for (const int frame : below)
-      run_sql(db, "INSERT INTO task_frames(task_id, level, frame) VALUES(?1, ?2, ?3)", task, t.level - 1, frame);
+    for (const FrameKey& k : needs)
+      run_sql(db, "INSERT OR IGNORE INTO task_frames(task_id, level, frame) VALUES(?1, ?2, ?3)", task, k.level,
+              k.frame);
     set_task_state(db, task, TaskState::waiting,
                    "seam moved from " + str(t.first) + " to " + str(new_first) + ": " + message, false);
-    free_worker(db, t.worker, false);
     NewTask b;
     b.kind = TaskKind::level;
     b.level = t.level;

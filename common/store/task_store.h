@@ -187,12 +187,13 @@ class TaskStore {
   void continue_horizontally(int64_t task, int64_t attempt, const std::string& message);
   // The running attempt `attempt` of a level >= 1 task (a, b], a > 0, found no safe upsampling at a
   // (as continue_horizontally), and the seam moves to a' (a < a' < b): the task becomes (a', b],
-  // waiting for level l-1's frames a'-1 and a' (and a'+1 on levels >= 2 when b > a'+1) to start
-  // vertically there, and a new task (a, a'] of the same level continues horizontally from the
-  // level's own frames a-1 and a (a bridge over the frames the seam left). The attempt closes as
-  // "vertical start refused". Returns the bridge's id. Throws StoreError for another attempt or task,
-  // or a' outside (a, b).
-  int64_t move_seam(int64_t task, int64_t attempt, int new_first, const std::string& message);
+  // waiting for `needs` (the task graph's, farm/task_graph.h subset_needs) to start vertically
+  // there, and a new task (a, a'] of the same level continues horizontally from the level's own
+  // frames a-1 and a (a bridge over the frames the seam left). The attempt closes as "vertical start
+  // refused". Returns the bridge's id. Throws StoreError for another attempt or task, or a' outside
+  // (a, b).
+  int64_t move_seam(int64_t task, int64_t attempt, int new_first, const std::vector<FrameKey>& needs,
+                    const std::string& message);
   // Vertical starts of the task refused so far (attempts closed "vertical start refused").
   int refused_starts(int64_t task) const;
   // Whether the task continues horizontally from its own level's frames (level >= 1, first > 0, and

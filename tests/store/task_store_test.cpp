@@ -850,9 +850,10 @@ TEST_F(TaskStoreTest, AMovedSeamShrinksTheSubsetAndAddsABridgeThatContinuesHoriz
   const Claim c = *s.claim_next(w);
   ASSERT_EQ(c.task.id, t[2].id);
   EXPECT_EQ(s.refused_starts(t[2].id), 0);
-  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 8, "m"); }),
+  const std::vector<FrameKey> needs = {{0, 4}, {0, 5}};  // farm::subset_needs(1, 5, 8)
+  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 8, needs, "m"); }),
             path_ + ": move_seam: task " + std::to_string(t[2].id) + " (3, 8]: the new seam 8 is not inside it");
-  const int64_t bridge = s.move_seam(t[2].id, c.attempt, 5, "no valid perturbation");
+  const int64_t bridge = s.move_seam(t[2].id, c.attempt, 5, needs, "no valid perturbation");
   EXPECT_EQ(s.refused_starts(t[2].id), 1);
   const TaskRow moved = s.task(t[2].id);
   EXPECT_EQ(moved.first, 5);
@@ -875,7 +876,7 @@ TEST_F(TaskStoreTest, AMovedSeamShrinksTheSubsetAndAddsABridgeThatContinuesHoriz
   s.record_frame(job, {1, 2}, FrameData{});
   s.record_frame(job, {1, 3}, FrameData{});
   EXPECT_EQ(s.task(bridge).state, TaskState::ready);
-  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 6, "m"); }),
+  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 6, needs, "m"); }),
             path_ + ": move_seam: attempt " + std::to_string(c.attempt) + " is not task " + std::to_string(t[2].id) +
                 "'s running attempt");
 }
