@@ -8,6 +8,8 @@
 // first subset with the preview, the cheapest level (about 2 % of the flag's work).
 #include <limits>
 #include <optional>
+#include <stdexcept>
+#include <string>
 
 #include "farm/seam_placement.h"
 #include "farm/task_graph.h"
@@ -23,13 +25,19 @@ bool Scheduler::refinement_pending(const JobRow& job) const {
 }
 
 std::vector<int> Scheduler::place_job_seams(const JobRow& job) {
-  JobFile* f = files_.find(job.id);
+  // Each preview frame read once, from the store (positions and statistics together): the profile
+  // asks for frame t's positions and then its contact pairs.
+  std::optional<FrameData> d;
   const farm::PreviewProfile p = farm::preview_profile(
-      job.spec.frames, [&](int t) { return f->writer->read_frame(0, t); },
+      job.spec.frames,
       [&](int t) {
-        if (const std::optional<FrameData> d = store_->frame_data(job.id, {0, t}))
-          for (const auto& [name, value] : d->stats)
-            if (name == "contact_active_pairs") return value;
+        d = store_->frame_data(job.id, {0, t});
+        if (!d) throw std::logic_error("seams: preview frame " + std::to_string(t) + " is not stored");
+        return Positions(Eigen::Map<const Positions>(d->positions.data(), Eigen::Index(d->positions.size() / 3), 3));
+      },
+      [&](int) {
+        for (const auto& [name, value] : d->stats)
+          if (name == "contact_active_pairs") return value;
         return std::numeric_limits<double>::quiet_NaN();
       });
   std::vector<int> seams;

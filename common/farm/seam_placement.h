@@ -40,7 +40,8 @@ struct PreviewProfile {
 };
 
 // The profile of a stored preview of frames 0..N: frame(t) its positions (all vertices, m),
-// contact_pairs(t) its contact_active_pairs statistic (NaN where not recorded). Reads every frame once.
+// contact_pairs(t) its contact_active_pairs statistic (NaN where not recorded). Asks for each frame
+// once, in increasing t, frame(t) before contact_pairs(t).
 PreviewProfile preview_profile(int frames, const std::function<Positions(int)>& frame,
                                const std::function<double(int)>& contact_pairs);
 
