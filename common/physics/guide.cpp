@@ -27,10 +27,14 @@ void GuideTerm::set_guide(const Eigen::VectorXd& target, double weight) {
   if (target.size() != masses_.size())
     throw std::invalid_argument("GuideTerm::set_guide: the target has " + std::to_string(target.size()) +
                                 " dofs, the masses " + std::to_string(masses_.size()));
-  if (!(std::isfinite(weight) && weight >= 0.0))
-    throw std::invalid_argument("GuideTerm::set_guide: the weight must be finite and >= 0");
   if (!target.allFinite()) throw std::invalid_argument("GuideTerm::set_guide: the target is not finite");
+  set_weight(weight);
   target_ = target;
+}
+
+void GuideTerm::set_weight(double weight) {
+  if (!(std::isfinite(weight) && weight >= 0.0))
+    throw std::invalid_argument("GuideTerm::set_weight: the weight must be finite and >= 0");
   weight_ = weight;
 }
 

@@ -39,6 +39,8 @@ class GuideTerm : public EnergyTerm {
   // The target y (m, size 3n) and weight w (finite, >= 0) for the steps that follow, until set again.
   // std::invalid_argument otherwise.
   void set_guide(const Eigen::VectorXd& target, double weight);
+  // The weight alone, the target kept (finite, >= 0; std::invalid_argument otherwise).
+  void set_weight(double weight);
 
   double weight() const { return weight_; }
 

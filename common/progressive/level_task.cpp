@@ -128,11 +128,10 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
 
   Eigen::VectorXd x_hat;
   for (int t = a; t < b; ++t) {
-    if (guide) {
-      const double u = std::min(1.0, double(t + 1 - a) / inputs.stitch_frames);
-      const bool stitching = t + 1 <= a + inputs.stitch_frames;
-      guide->set_guide(stitching ? inputs.stitch_target(t + 1) : x, stitching ? stitch_weight(u) : 0.0);
-    }
+    if (guide && t + 1 <= a + inputs.stitch_frames)  // after the stitch the guide keeps its last target, at weight 0
+      guide->set_guide(inputs.stitch_target(t + 1), stitch_weight(double(t + 1 - a) / inputs.stitch_frames));
+    else if (guide && t == a + inputs.stitch_frames)
+      guide->set_weight(0.0);
     StepInput in;
     if (refining) {
       // PD eq. 5: the momentum of level l-1, prolonged.

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 
 #include "support/term_eval.h"
@@ -49,7 +50,8 @@ TEST(Guide, WeightZeroAddsNothingAndTheTargetIsStationaryAtEveryWeight) {
   Fixture f;
   const Eigen::VectorXd y = test::wavy(9, 0.4, 0.9);
   const Eigen::VectorXd x = y + test::wavy(9, 2.1, 0.2);
-  f.term.set_guide(y, 0.0);
+  f.term.set_guide(y, 3.0);
+  f.term.set_weight(0.0);
   EXPECT_EQ(f.term.value(x), 0.0);
   EXPECT_EQ(test::term_gradient(f.term, x).norm(), 0.0);
   for (double w : {0.5, 1.0, 1e6}) {
@@ -65,6 +67,7 @@ TEST(Guide, BadInputThrows) {
   EXPECT_THROW(GuideTerm(-Eigen::VectorXd::Ones(3)), std::invalid_argument);
   EXPECT_THROW(f.term.set_guide(Eigen::VectorXd::Zero(6), 1.0), std::invalid_argument);
   EXPECT_THROW(f.term.set_guide(Eigen::VectorXd::Zero(9), -1.0), std::invalid_argument);
+  EXPECT_THROW(f.term.set_weight(std::nan("")), std::invalid_argument);
   GuideTerm fresh(f.masses);
   EXPECT_THROW(fresh.value(Eigen::VectorXd::Zero(9)), std::logic_error);
   EXPECT_THROW(f.term.value(Eigen::VectorXd::Zero(3)), std::invalid_argument);
