@@ -12,7 +12,6 @@
 //   pd_bench_seam_overlap SCENE --frames N --seam A [--overlaps 0,2,4,8]
 // prints one line per overlap and a JSON object per overlap on the last lines.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <cstdio>
@@ -24,6 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench_main.h"
+#include "level_runs.h"
 #include "hierarchy/scene_hierarchy.h"
 #include "progressive/error_measures.h"
 #include "progressive/level_task.h"
@@ -31,22 +31,7 @@
 
 namespace {
 
-using Frames = std::map<int, Eigen::VectorXd>;
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-
-// Solves `task` with level `below`'s frames (null for level 0) and returns its frames.
-Frames solve(const pd::Scene& scene, const pd::SceneHierarchy& h, const pd::LevelTask& task, const Frames* below,
-             double& seconds) {
-  pd::LevelTaskInputs in;
-  if (below) in.below = [below](int t) { return below->at(t); };
-  Frames out;
-  const auto start = Clock::now();
-  pd::solve_level_task(scene, h, task, in, [&](const pd::FrameRecord& r) { out[r.frame] = r.x; });
-  seconds = seconds_since(start);
-  return out;
-}
+using pd::bench::Frames;
 
 double max_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   double d = 0.0;
@@ -76,15 +61,8 @@ int run(int argc, char** argv) {
   scene.frames = frames;
   const pd::SceneHierarchy h = pd::build_scene_hierarchy(scene);
   const int L = level >= 1 ? std::min(level, h.num_levels() - 1) : h.num_levels() - 1;
-  std::vector<Frames> single(static_cast<std::size_t>(L + 1));
   double total = 0.0;
-  for (int l = 0; l <= L; ++l) {
-    double s = 0.0;
-    single[static_cast<std::size_t>(l)] =
-        solve(scene, h, {l, 0, frames}, l > 0 ? &single[static_cast<std::size_t>(l - 1)] : nullptr, s);
-    total += s;
-    std::printf("single run: level %d (0, %d] in %.2f s\n", l, frames, s);
-  }
+  const std::vector<Frames> single = pd::bench::single_run(scene, h, L, frames, nullptr, &total);
   const Frames& ref = single[static_cast<std::size_t>(L)];
   const Frames& below = single[static_cast<std::size_t>(L - 1)];
   std::vector<nlohmann::json> results;
@@ -99,7 +77,7 @@ int run(int argc, char** argv) {
     double s = 0.0;
     Frames subset;
     try {
-      subset = solve(scene, h, {L, start, frames}, &below, s);
+      subset = pd::bench::solve_frames(scene, h, {L, start, frames}, pd::bench::fed_by(&below), s);
     } catch (const std::exception& e) {
       r["error"] = e.what();
       std::printf("overlap %d: failed: %s\n", m, e.what());

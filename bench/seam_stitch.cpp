@@ -16,7 +16,6 @@
 //   pd_bench_seam_stitch SCENE --frames N --seam S [--widths 0,4,8,16] [--level L]
 // prints one line per width and a JSON object per width on the last lines.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -28,6 +27,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench_main.h"
+#include "level_runs.h"
 #include "hierarchy/scene_hierarchy.h"
 #include "progressive/error_measures.h"
 #include "progressive/level_task.h"
@@ -35,26 +35,9 @@
 
 namespace {
 
-using Frames = std::map<int, Eigen::VectorXd>;
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-
-// Solves `task` with `in` (below, own frames, stitch) and returns its frames; kappa: each frame's
-// barrier stiffness stat, when the scene has contact.
-Frames solve(const pd::Scene& scene, const pd::SceneHierarchy& h, const pd::LevelTask& task, pd::LevelTaskInputs in,
-             double& seconds, std::map<int, double>* kappa = nullptr) {
-  Frames out;
-  const auto start = Clock::now();
-  pd::solve_level_task(scene, h, task, in, [&](const pd::FrameRecord& r) {
-    out[r.frame] = r.x;
-    if (kappa)
-      for (const auto& [name, value] : r.contact)
-        if (name == "barrier_stiffness") (*kappa)[r.frame] = value;
-  });
-  seconds = seconds_since(start);
-  return out;
-}
+using pd::bench::Frames;
+using pd::bench::fed_by;
+using pd::bench::solve_frames;
 
 // m(t) of a trajectory (every vertex), NaN where t-1, t, t+1 are not all there.
 std::vector<double> second_differences(const Frames& run, int frames) {
@@ -92,24 +75,12 @@ int run(int argc, char** argv) {
   scene.frames = frames;
   const pd::SceneHierarchy h = pd::build_scene_hierarchy(scene);
   const int L = level >= 1 ? std::min(level, h.num_levels() - 1) : h.num_levels() - 1;
-  std::vector<Frames> single(static_cast<std::size_t>(L + 1));
   std::map<int, double> kappa;
-  for (int l = 0; l <= L; ++l) {
-    double s = 0.0;
-    pd::LevelTaskInputs in;
-    if (l > 0) {
-      const Frames* below = &single[static_cast<std::size_t>(l - 1)];
-      in.below = [below](int t) { return below->at(t); };
-    }
-    single[static_cast<std::size_t>(l)] = solve(scene, h, {l, 0, frames}, in, s, l == L ? &kappa : nullptr);
-    std::printf("single run: level %d (0, %d] in %.2f s\n", l, frames, s);
-  }
+  const std::vector<Frames> single = pd::bench::single_run(scene, h, L, frames, &kappa);
   const Frames& one = single[static_cast<std::size_t>(L)];
   const Frames& below = single[static_cast<std::size_t>(L - 1)];
-  pd::LevelTaskInputs later_in;
-  later_in.below = [&below](int t) { return below.at(t); };
   double later_seconds = 0.0;
-  const Frames later = solve(scene, h, {L, seam, frames}, later_in, later_seconds);
+  const Frames later = solve_frames(scene, h, {L, seam, frames}, fed_by(&below), later_seconds);
   const double step_seconds = later_seconds / (frames - seam);
   std::printf("later subset (%d, %d] from a vertical start: %.2f s (%.4f s per step)\n", seam, frames, later_seconds,
               step_seconds);
@@ -124,14 +95,13 @@ int run(int argc, char** argv) {
       if (t >= seam + std::max(w, 1)) run[t] = x;
     double stitch_seconds = 0.0, landing = 0.0;
     if (w > 0) {
-      pd::LevelTaskInputs in;
-      in.below = [&below](int t) { return below.at(t); };
+      pd::LevelTaskInputs in = fed_by(&below);
       in.own_before = one.at(seam - 1);
       in.own_start = one.at(seam);
       if (kappa.count(seam)) in.own_kappa = kappa.at(seam);
       in.stitch_target = [&later](int f) { return later.at(f); };
       in.stitch_frames = w;
-      const Frames stitch = solve(scene, h, {L, seam, seam + w}, in, stitch_seconds);
+      const Frames stitch = solve_frames(scene, h, {L, seam, seam + w}, in, stitch_seconds);
       for (int t = seam + 1; t < seam + w; ++t) run[t] = stitch.at(t);
       landing = (stitch.at(seam + w) - later.at(seam + w)).cwiseAbs().maxCoeff();
     }
