@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "support/intersection_checker.h"
 #include "support/test_paths.h"
 
 namespace pd::test {
@@ -225,6 +226,56 @@ std::vector<json> log_events(const std::string& log_path, const std::string& kin
     }
   }
   return events;
+}
+
+// Largest vertex distance (m) between the files over frames first..last of `level`.
+double max_vertex_deviation(const FrameReader& a, const FrameReader& b, int level, int first, int last) {
+  double worst = 0.0;
+  for (int t = first; t <= last; ++t) worst = std::max(worst, (a.frame(level, t) - b.frame(level, t)).rowwise().norm().maxCoeff());
+  return worst;
+}
+
+// Every frame of every level stored, and none intersecting (independent CGAL check).
+void expect_complete_and_intersection_free(const FrameReader& r) {
+  for (int l = 0; l < r.num_levels(); ++l) {
+    const std::vector<uint8_t> done = r.done(l);
+    EXPECT_EQ(std::count(done.begin(), done.end(), uint8_t{1}), r.num_frames()) << r.path() << " level " << l;
+    const Faces faces = r.faces(l);
+    for (int t = 0; t < r.num_frames(); ++t) {
+      if (!done[t]) continue;
+      const IntersectionReport rep = find_intersections(r.frame(l, t), faces);
+      EXPECT_EQ(rep.intersecting_pairs, 0) << r.path() << " level " << l << " frame " << t;
+      EXPECT_TRUE(rep.degenerate_faces.empty()) << r.path() << " level " << l << " frame " << t;
+    }
+  }
+}
+
+void expect_every_level_complete(const nlohmann::json& job, int frames) {
+  EXPECT_EQ(job.at("state"), "done");
+  for (const nlohmann::json& l : job.at("levels")) {
+    EXPECT_EQ(l.at("frames_total"), frames + 1) << l.dump();
+    EXPECT_EQ(l.at("frames_done"), l.at("frames_total")) << l.dump();
+  }
+}
+
+// Submits `scene` for `frames` frames in `subsets` time subsets with its reference pd simulate
+// (progressive, one process) running beside it, waits for both, and fetches the job's frames:
+// DIR/job.h5 and DIR/ref.h5, DIR the farm's folder. Returns the job id.
+int64_t run_beside_reference(Farm& farm, const std::string& scene, int frames, int subsets) {
+  const std::string ref_path = farm.dir() + "/ref.h5";
+  const int64_t job = submit(farm, {scene, "--frames", std::to_string(frames), "--subsets", std::to_string(subsets)});
+  test::Process ref = start_reference(scene, ref_path, frames);
+  wait_until_done(farm, job, kLongJob);
+  fetch(farm, job, farm.dir() + "/job.h5");
+  finish_reference(ref, ref_path, kLongJob);
+  return job;
+}
+
+
+std::set<std::string> task_workers(const nlohmann::json& job) {
+  std::set<std::string> names;
+  for (const nlohmann::json& t : job.at("tasks")) names.insert(t.at("worker").get<std::string>());
+  return names;
 }
 
 }  // namespace pd::test

@@ -115,6 +115,19 @@ bool same_bits(const Positions& a, const Positions& b);
 // Frames first..last of `level` equal bit for bit in both files (and the level's mesh too).
 void expect_identical_frames(const FrameReader& a, const FrameReader& b, int level, int first, int last);
 
+// Largest vertex distance (m) between the files over frames first..last of `level`.
+double max_vertex_deviation(const FrameReader& a, const FrameReader& b, int level, int first, int last);
+// Every frame of every level stored, and none intersecting (independent CGAL check); expectations.
+void expect_complete_and_intersection_free(const FrameReader& r);
+// `pd status --json`'s job object: done, every level with all N + 1 frames; expectations.
+void expect_every_level_complete(const nlohmann::json& job, int frames);
+// The names of the workers that ran the job's tasks (`pd status --json`'s job object).
+std::set<std::string> task_workers(const nlohmann::json& job);
+// Submits `scene` for `frames` frames in `subsets` time subsets with its reference pd simulate
+// (progressive, one process) running beside it, waits for both, and fetches the job's frames:
+// DIR/job.h5 and DIR/ref.h5, DIR the farm's folder. Returns the job id.
+int64_t run_beside_reference(Farm& farm, const std::string& scene, int frames, int subsets);
+
 // The scheduler log's JSON lines whose "event" is `kind`.
 std::vector<nlohmann::json> log_events(const std::string& log_path, const std::string& kind);
 
