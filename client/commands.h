@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <string>
 
+#include "farm/task_graph.h"
 #include "protocol/protocol.h"
 
 namespace pd::cli {
@@ -83,6 +84,7 @@ struct SubmitArgs {
   int frames = 0;
   int preview_chunk = 0;   // frames per preview task
   std::string hessian = "auto";
+  int stitch = farm::kDefaultStitchFrames;  // W frames per seam stitch (farm/task_graph.h); 0: none
   bool json = false;       // print {"job": ID} instead of the bare id
 };
 int submit(const SubmitArgs& args);
@@ -113,6 +115,7 @@ struct JobActionArgs {
   FarmKeyFiles keys;
   int64_t job = 0;
   int subsets = 1;         // refine only
+  int stitch = farm::kDefaultStitchFrames;  // refine only
   bool json = false;       // print {"job", "message"}
 };
 int cancel(const JobActionArgs& args);
@@ -136,6 +139,7 @@ struct RunArgs {
   std::string out;
   int workers = 0;
   int subsets = 1;
+  int stitch = farm::kDefaultStitchFrames;
   bool preview_only = false;
   int levels = 0;
   int frames = 0;

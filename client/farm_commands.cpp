@@ -123,6 +123,7 @@ int submit(const SubmitArgs& args) {
   job.preview_only = args.preview_only;
   job.levels = args.levels;
   job.subsets = args.subsets;
+  job.stitch = args.stitch;
   job.priority = args.priority;
   job.frames = args.frames;
   job.preview_chunk = args.preview_chunk;
@@ -179,7 +180,7 @@ int cancel(const JobActionArgs& args) {
 
 int refine(const JobActionArgs& args) {
   FarmClient client = farm_client_for(args.farm, args.keys);
-  const auto accepted = client.request_as<protocol::Accepted>(protocol::RefineJob{args.job, args.subsets});
+  const auto accepted = client.request_as<protocol::Accepted>(protocol::RefineJob{args.job, args.subsets, args.stitch});
   if (args.json) print_json({{"job", accepted.job}, {"message", accepted.message}});
   else std::printf("job %lld: %s\n", static_cast<long long>(accepted.job),
                    accepted.message.empty() ? "refinement levels added" : accepted.message.c_str());

@@ -49,6 +49,7 @@ constexpr int64_t kIntMax = 2147483647;
 CLI::Validator count_at_least_one() { return pd::cli::decimal_integer(1, kIntMax); }
 CLI::Validator job_id() { return pd::cli::decimal_integer(1, INT64_MAX, "a positive integer (a job id)"); }
 CLI::Validator frame_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxFrames); }
+CLI::Validator stitch_frames() { return pd::cli::decimal_integer(0, pd::cli::kMaxFrames); }
 CLI::Validator level_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxLevels); }
 CLI::Validator level_index() { return pd::cli::decimal_integer(0, pd::cli::kMaxLevels - 1); }
 CLI::Validator positive_seconds() { return pd::cli::decimal_real(0.0, true, 1e9, "seconds, > 0 and <= 1e9"); }
@@ -114,6 +115,8 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
   f.submit->add_option("--levels", f.sub.levels, "Hierarchy levels instead of the scene's")->transform(level_count());
   f.submit->add_option("--subsets", f.sub.subsets, "Time subsets per refinement level (parallel tasks)")
       ->transform(count_at_least_one());
+  f.submit->add_option("--stitch", f.sub.stitch, "Frames each seam is stitched over, so that it does not pop (0: none; default 16)")
+      ->transform(stitch_frames());
   f.submit->add_option("--priority", f.sub.priority, "Higher runs first (default 0)")
       ->transform(pd::cli::decimal_integer(-kIntMax - 1, kIntMax));
   f.submit->add_option("--frames", f.sub.frames, "Frames instead of the scene's count")->transform(frame_count());
@@ -146,6 +149,8 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
   f.refine = app.add_subcommand("refine", "Add the refinement levels to a preview-only job");
   f.refine->add_option("job", f.re.job, job_help)->required()->transform(job_id());
   f.refine->add_option("--subsets", f.re.subsets, "Time subsets per refinement level")->transform(count_at_least_one());
+  f.refine->add_option("--stitch", f.re.stitch, "Frames each seam is stitched over, so that it does not pop (0: none; default 16)")
+      ->transform(stitch_frames());
   add_farm_options(f.refine, f.re.farm, f.re.keys);
   f.refine->add_flag("--json", f.re.json, "Print {\"job\", \"message\"}");
 
@@ -167,6 +172,8 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
       ->transform(count_at_least_one());
   f.run->add_option("--out,-o", f.ru.out, "Frame file to write (HDF5) when the job is done")->required();
   f.run->add_option("--subsets", f.ru.subsets, "Time subsets per refinement level")->transform(count_at_least_one());
+  f.run->add_option("--stitch", f.ru.stitch, "Frames each seam is stitched over, so that it does not pop (0: none; default 16)")
+      ->transform(stitch_frames());
   f.run->add_flag("--preview-only", f.ru.preview_only, "Only the preview (level 0)");
   f.run->add_option("--levels", f.ru.levels, "Hierarchy levels instead of the scene's")->transform(level_count());
   f.run->add_option("--frames", f.ru.frames, "Frames instead of the scene's count")->transform(frame_count());

@@ -148,7 +148,8 @@ void print_table(std::ostream& out, const PlanArgs& a, const Measured& m, const 
   const int chunk = std::min(g.preview_chunk == 0 ? farm::default_preview_chunk(g.frames) : g.preview_chunk, g.frames);
   char line[256];
   out << "plan: " << a.file << ": N = " << g.frames << " frames, " << g.levels << " level(s), K = " << k
-      << " subset(s) per refinement level, preview chunks of " << chunk << " frames\n";
+      << " subset(s) per refinement level, preview chunks of " << chunk << " frames"
+      << (k >= 2 ? ", seams stitched over " + std::to_string(g.stitch) + " frames" : std::string()) << "\n";
   out << "step cost per level (measured: mean " << kStepStat << " over the level's solved frames):\n";
   for (int l = 0; l < g.levels; ++l) {
     std::snprintf(line, sizeof line, "  level %d: %.6g s (%d frames)\n", l, c.step_seconds[static_cast<std::size_t>(l)],
@@ -185,6 +186,7 @@ void print_json(std::ostream& out, const PlanArgs& a, const Measured& m, const f
   j["frames"] = g.frames;
   j["levels"] = g.levels;
   j["subsets"] = std::min(g.subsets, g.frames);
+  j["stitch"] = g.stitch;
   j["preview_chunk"] =
       std::min(g.preview_chunk == 0 ? farm::default_preview_chunk(g.frames) : g.preview_chunk, g.frames);
   j["step_seconds"] = c.step_seconds;
@@ -220,6 +222,8 @@ CLI::App* add_plan_subcommand(CLI::App& app, PlanArgs& args) {
   const CLI::Validator seconds = decimal_real(0.0, false, 1e9, "seconds, >= 0 and <= 1e9");
   cmd->add_option("--subsets", args.subsets, "Time subsets K per refinement level (default 1)")
       ->transform(decimal_integer(1, 2147483647));
+  cmd->add_option("--stitch", args.stitch, "Frames each seam is stitched over, as pd submit --stitch (default 16)")
+      ->transform(decimal_integer(0, kMaxFrames));
   cmd->add_option("--frames", args.frames,
                   "Frames N to plan (default 0: the file's); a longer shot is planned with the file's step costs")
       ->transform(decimal_integer(0, kMaxFrames));
@@ -253,6 +257,7 @@ int plan(const PlanArgs& args) {
   g.levels = static_cast<int>(m.step.size());
   g.subsets = args.subsets;
   g.preview_chunk = args.preview_chunk;
+  g.stitch = args.stitch;
   farm::Costs c;
   c.step_seconds = m.step;
   for (int l = 0; l < g.levels; ++l) {

@@ -20,6 +20,8 @@
 #include <optional>
 #include <string>
 
+#include "farm/task_graph.h"
+
 namespace CLI {
 class App;
 }
@@ -30,6 +32,7 @@ struct PlanArgs {
   std::string file;
   std::string workers = "1,2,8,32,128";  // comma-separated worker counts, each >= 1
   int subsets = 1;                       // K per refinement level (clamped to N as the farm does)
+  int stitch = farm::kDefaultStitchFrames;  // W frames per seam stitch, as pd submit's --stitch
   int frames = 0;                        // N to plan; 0: the file's (a longer shot with the file's step costs)
   int preview_chunk = 0;                 // frames per preview task; 0: the farm's default
   std::optional<double> vertical_start_seconds;  // one vertical start, every level; unset: 2 x step cost

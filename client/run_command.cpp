@@ -168,6 +168,7 @@ int run(const RunArgs& args) {
   submit.preview_only = args.preview_only;
   submit.levels = args.levels;
   submit.subsets = args.subsets;
+  submit.stitch = args.stitch;
   submit.frames = args.frames;
   submit.hessian = args.hessian;
   check_output_path(args.out);

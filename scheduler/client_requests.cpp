@@ -61,11 +61,13 @@ protocol::Reply Scheduler::serve(protocol::SubmitJob& m) {
   job.preview_only = m.preview_only;
   job.preview_chunk = m.preview_chunk > 0 ? m.preview_chunk : farm::default_preview_chunk(job.frames);
   job.hessian = m.hessian;
+  job.stitch = m.stitch;
   farm::GraphOptions g;
   g.frames = job.frames;
   g.levels = job.levels;
   g.subsets = job.subsets;
   g.preview_chunk = job.preview_chunk;
+  g.stitch = job.stitch;
   // K >= 2: the refinement levels are added once the preview is stored, with seams placed from it
   // (seams.cpp); K = 1 pipelines them behind the preview from the start.
   const bool deferred = !job.preview_only && job.subsets >= 2 && job.levels >= 2;
@@ -93,7 +95,7 @@ protocol::Reply Scheduler::serve(protocol::RefineJob& m) {
     return error("job " + std::to_string(m.job) + " is " + protocol::to_string(job->state) + ": nothing to refine");
   if (m.subsets < 1) return error("refine: subsets: must be >= 1, got " + std::to_string(m.subsets));
   if (job->spec.levels < 2) return error("job " + std::to_string(m.job) + " has one level: nothing to refine");
-  store_->set_subsets(m.job, m.subsets);
+  store_->set_subsets(m.job, m.subsets, m.stitch);
   store_->set_preview_only(m.job, false);
   if (m.subsets >= 2) {
     // Pending until the preview is stored whole (now, if it is): seams are placed from it (seams.cpp).
@@ -110,6 +112,7 @@ protocol::Reply Scheduler::serve(protocol::RefineJob& m) {
   g.levels = job->spec.levels;
   g.subsets = m.subsets;
   g.preview_chunk = job->spec.preview_chunk;
+  g.stitch = m.stitch;
   const std::vector<NewTask> tasks = farm::refinement_tasks(g);
   store_->add_tasks(m.job, tasks);
   event("job_refined", m.job, 0, 0, std::to_string(tasks.size()) + " refinement tasks, K = " + std::to_string(m.subsets));
@@ -125,6 +128,7 @@ protocol::JobStatus Scheduler::job_status(const JobRow& job) {
   js.priority = job.spec.priority;
   js.frames = job.spec.frames;
   js.subsets = job.spec.subsets;
+  js.stitch = job.spec.stitch;
   js.preview_only = job.spec.preview_only;
   js.elapsed_seconds = (job.finished > 0 ? job.finished : unix_now()) - job.submitted;
   const std::vector<int> stored = store_->frames_stored(job.id);
@@ -156,7 +160,8 @@ protocol::JobStatus Scheduler::job_status(const JobRow& job) {
     ts.state = t.state;
     ts.reason = t.reason;
     ts.attempts = t.attempts;
-    ts.horizontal = store_->continues_horizontally(t.id);
+    ts.horizontal = !t.stitch && store_->continues_horizontally(t.id);
+    ts.stitch = t.stitch;
     ts.worker = t.worker ? names[t.worker] : "";
     if (const std::optional<farm::FrameRange> own = farm::produced_frames(as_new_task(t)))
       ts.frames_done = static_cast<int>(store_->stored_frames(job.id, own->level, own->first, own->last).size());

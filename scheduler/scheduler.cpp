@@ -31,6 +31,8 @@ NewTask as_new_task(const TaskRow& t) {
   n.level = t.level;
   n.first = t.first;
   n.last = t.last;
+  n.stitch = t.stitch;
+  n.guides = t.guides;
   return n;
 }
 
@@ -228,6 +230,16 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
       a.own_start = as_vector(f->writer->read_frame(t.level, a.start));
       a.own_kappa = store_->frame_kappa(t.job, {t.level, a.start});
     }
+    // A stitch task: the later subset's guide frames, all of them (the ramp counts from the seam).
+    for (int g = t.first + 1; t.stitch && g <= t.last; ++g) {
+      std::optional<std::vector<double>> guide = store_->guide_frame(t.job, {t.level, g});
+      if (!guide) {  // cannot happen: the task was ready, so its guide frames were stored
+        store_->release_task(t.id, "guide frame missing");
+        event("dispatch_error", t.job, t.id, s.worker, "stitch task ready without its guide frame " + std::to_string(g));
+        return false;
+      }
+      a.guides.push_back(std::move(*guide));
+    }
   }
   send_worker(identity, protocol::encode(a));
   if (a.hierarchy_blob) s.hierarchies.insert(a.hierarchy_hash);
@@ -259,7 +271,7 @@ int Scheduler::continuation_start(const TaskRow& t) const {
     last_stored = frame;
   }
   const bool vertical = t.level >= 1 && t.first > 0 && !store_->continues_horizontally(t.id);
-  const int earliest = vertical ? t.first + 2 : t.first + 1;
+  const int earliest = (vertical ? t.first + 2 : t.first + 1) + t.guides;  // own frames are after the guides
   return last_stored >= earliest ? last_stored : t.first;
 }
 
@@ -350,9 +362,13 @@ void Scheduler::preempt_starved() {
     const FrameKey need{t.level - 1, s.progress};
     if (store_->frame_stored(t.job, need)) continue;
     bool producer_waits = false;
-    for (const TaskRow& p : store_->tasks(t.job))
-      if (p.kind == protocol::TaskKind::level && p.level == need.level && p.first < need.frame && need.frame <= p.last)
+    for (const TaskRow& p : store_->tasks(t.job)) {
+      // The task that stores the frame (a later subset's guide frames are not the job's: a seam's
+      // stitch task stores those frames of the level, task_graph.h).
+      const std::optional<farm::FrameRange> own = farm::produced_frames(as_new_task(p));
+      if (own && own->level == need.level && own->first <= need.frame && need.frame <= own->last)
         producer_waits = p.state == protocol::TaskState::ready;
+    }
     if (!producer_waits) continue;
     protocol::CancelTask c;
     c.attempt = s.attempt;

@@ -136,6 +136,7 @@ class Scheduler {
   // up to s.progress + kFeedWindow that it was not sent yet (on assignment, on each of its frame
   // reports and heartbeats: a send refused by a full queue is tried again there).
   void top_up_feed(const std::string& identity, Session& s);
+  void store_guide_frame(const std::string& identity, Session& s, const TaskRow& t, const protocol::FrameReport& m);
   void feed_new_frame(int64_t job, int level, int frame);
   // False when the message was not queued: the peer's queue is full (the message is dropped; the
   // peer is not blamed for it) or the peer is gone.

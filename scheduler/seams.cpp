@@ -58,6 +58,7 @@ void Scheduler::add_pending_refinement(const JobRow& job) {
   g.levels = job.spec.levels;
   g.subsets = job.spec.subsets;
   g.preview_chunk = job.spec.preview_chunk;
+  g.stitch = job.spec.stitch;
   const std::vector<NewTask> tasks =
       farm::refinement_tasks(g, job.spec.subsets >= 2 ? place_job_seams(job) : std::vector<int>{});
   store_->add_tasks(job.id, tasks);

@@ -137,7 +137,8 @@ void Scheduler::on_report(const std::string& identity, protocol::FrameReport& m)
   JobFile* f = files_.find(t.job);
   std::string bad;
   const std::optional<farm::FrameRange> own = farm::produced_frames(as_new_task(t));
-  const int lo = own ? own->first : 0;
+  const std::optional<farm::FrameRange> guides = farm::guide_frames(as_new_task(t));
+  const int lo = guides ? guides->first : own ? own->first : 0;
   if (!own || !f)
     bad = "a frame for a task that solves no frames";
   else if (m.level != t.level)
@@ -161,6 +162,10 @@ void Scheduler::on_report(const std::string& identity, protocol::FrameReport& m)
                                 " is not finite (the solver diverged)");
       return;
     }
+  }
+  if (guides && m.frame <= guides->last) {
+    store_guide_frame(identity, *s, t, m);
+    return;
   }
   FrameData data;
   data.positions = std::move(m.positions);
@@ -207,13 +212,37 @@ void Scheduler::on_report(const std::string& identity, protocol::FrameReport& m)
   feed_new_frame(t.job, m.level, m.frame);
 }
 
+// A later subset's frame that its seam's stitch task is guided toward (farm/task_graph.h): kept in the
+// store's guide frames, not the job's (never written to its file nor fed to the level above).
+void Scheduler::store_guide_frame(const std::string& identity, Session& s, const TaskRow& t,
+                                  const protocol::FrameReport& m) {
+  s.progress = std::max(s.progress, m.frame);
+  top_up_feed(identity, s);
+  if (const std::optional<std::vector<double>> stored = store_->guide_frame(t.job, {m.level, m.frame})) {
+    const bool same = stored->size() == m.positions.size() &&
+                      (m.positions.empty() ||
+                       std::memcmp(stored->data(), m.positions.data(), sizeof(double) * m.positions.size()) == 0);
+    event(same ? "frame_repeated" : "frame_differs", t.job, t.id, s.worker,
+          "level " + std::to_string(m.level) + " guide frame " + std::to_string(m.frame) + " was stored already; kept");
+    return;
+  }
+  store_->record_guide_frame(t.job, {m.level, m.frame}, m.positions);
+  event("guide_stored", t.job, t.id, s.worker,
+        "level " + std::to_string(m.level) + " guide frame " + std::to_string(m.frame), false);
+}
+
 void Scheduler::on_report(const std::string& identity, protocol::TaskDone& m) {
   Session* s = attempt_session(identity, m.attempt, m.task, "task_done");
   if (!s) return;
   const TaskRow t = store_->task(m.task);
   const std::optional<farm::FrameRange> own = farm::produced_frames(as_new_task(t));
-  const std::size_t stored = own ? store_->stored_frames(t.job, own->level, own->first, own->last).size() : 0;
-  const std::size_t expected = own ? static_cast<std::size_t>(own->last - own->first + 1) : 1;
+  const std::optional<farm::FrameRange> guides = farm::guide_frames(as_new_task(t));
+  std::size_t stored = own ? store_->stored_frames(t.job, own->level, own->first, own->last).size() : 0;
+  std::size_t expected = own ? static_cast<std::size_t>(own->last - own->first + 1) : 1;
+  if (guides) {
+    stored += store_->stored_guide_frames(t.job, guides->level, guides->first, guides->last).size();
+    expected += static_cast<std::size_t>(guides->last - guides->first + 1);
+  }
   if (!own || stored != expected) {
     const std::string why = "reported done with " + std::to_string(stored) + " of " + std::to_string(expected) +
                             " frames stored";
@@ -249,7 +278,8 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskFailed& m) 
     end_attempt_of(*s);
     if (store_->refused_starts(t.id) < kMaxSeamMoves && moved_to < t.last) {
       const int64_t bridge =
-          store_->move_seam(t.id, attempt, moved_to, farm::subset_needs(t.level, moved_to, t.last), m.message);
+          store_->move_seam(t.id, attempt, moved_to, farm::subset_needs(t.level, moved_to, t.last),
+                            farm::stitch_task(t.level, moved_to, t.last, store_->job(t.job).spec.stitch), m.message);
       event("seam_moved", t.job, t.id, s->worker,
             "level " + std::to_string(t.level) + " seam " + std::to_string(t.first) + " -> " + std::to_string(moved_to) +
                 " (task " + std::to_string(bridge) + " bridges (" + std::to_string(t.first) + ", " +

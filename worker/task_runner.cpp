@@ -276,6 +276,13 @@ void TaskRunner::run_level(const protocol::AssignTask& task) {
     inputs.own_start = to_vector(*task.own_start);
     inputs.own_kappa = task.own_kappa;
   }
+  // A seam's stitch task (farm/task_graph.h): guided toward the later subset's frames first+1..last,
+  // its ramp counted from the seam (its first frame) whichever frame this attempt starts from.
+  if (!task.guides.empty()) {
+    inputs.stitch_frames = task.last - task.first + 1;
+    inputs.stitch_seam = task.first;
+    inputs.stitch_target = [&task](int f) { return to_vector(task.guides.at(static_cast<std::size_t>(f - task.first - 1))); };
+  }
   LevelTaskOptions options;
   options.system.hessian = parse_level_hessian(task.hessian);
   const auto sink = [&](const FrameRecord& r) {

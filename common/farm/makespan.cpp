@@ -78,13 +78,16 @@ class Simulation {
     const std::size_t slots = static_cast<std::size_t>(levels_) * (frames_ + 1);
     stored_.assign(slots, -1.0);  // -1: not stored (every stored time is >= 0)
     needed_by_.resize(slots);
-    step_owner_.assign(slots, -1);
+    guide_needed_by_.resize(slots);
+    step_owners_.resize(slots);
     for (int i = 0; i < static_cast<int>(tasks_.size()); ++i) {
       SimTask& t = tasks_[static_cast<std::size_t>(i)];
-      t.needs_left = static_cast<int>(t.spec.needs.size());
+      t.needs_left = static_cast<int>(t.spec.needs.size() + t.spec.guide_needs.size());
       for (const FrameKey& k : t.spec.needs) needed_by_[slot(k.level, k.frame)].push_back(i);
+      for (const FrameKey& k : t.spec.guide_needs) guide_needed_by_[slot(k.level, k.frame)].push_back(i);
+      // A seam's stitch task and the later subset both read the level below over the stitch's frames.
       if (t.spec.kind == protocol::TaskKind::level && t.spec.level >= 1)
-        for (int f = t.spec.first; f < t.spec.last; ++f) step_owner_[slot(t.spec.level, f)] = i;
+        for (int f = t.spec.first; f < t.spec.last; ++f) step_owners_[slot(t.spec.level, f)].push_back(i);
     }
     tasks_[0].state = State::ready;  // the hierarchy task, first in job_tasks
     ready_.insert({tasks_[0].spec.level, tasks_[0].spec.first, 0});
@@ -147,7 +150,7 @@ class Simulation {
       push(working, i, 0);
       return;
     }
-    const bool vertical = t.spec.level >= 1;
+    const bool vertical = t.spec.level >= 1 && !t.spec.stitch;  // a stitch continues horizontally
     t.own_time = working + (vertical ? costs_.vertical_start_seconds[static_cast<std::size_t>(t.spec.level)] : 0.0);
     t.next = t.spec.first + 1;
     advance(i);
@@ -176,7 +179,6 @@ class Simulation {
   void frame_stored(int i, int frame, double now) {
     SimTask& t = tasks_[static_cast<std::size_t>(i)];
     const int level = t.spec.level;
-    stored_[slot(level, frame)] = now;
     t.own_time = now;
     t.next = frame + 1;
     t.in_flight = false;
@@ -185,10 +187,16 @@ class Simulation {
     } else {
       advance(i);
     }
-    if (level + 1 < levels_ && frame < frames_) {  // the task of level + 1 whose step frame -> frame + 1 reads it
-      const int owner = step_owner_[slot(level + 1, frame)];
-      if (owner >= 0) advance(owner);
+    if (frame <= t.spec.first + t.spec.guides && frame > t.spec.first) {  // a guide frame (task_graph.h)
+      for (int j : guide_needed_by_[slot(level, frame)]) {
+        --tasks_[static_cast<std::size_t>(j)].needs_left;
+        promote_if_ready(j);
+      }
+      return;
     }
+    stored_[slot(level, frame)] = now;
+    if (level + 1 < levels_ && frame < frames_)  // the tasks of level + 1 whose step frame -> frame + 1 reads it
+      for (int owner : step_owners_[slot(level + 1, frame)]) advance(owner);
     for (int j : needed_by_[slot(level, frame)]) {
       --tasks_[static_cast<std::size_t>(j)].needs_left;
       promote_if_ready(j);
@@ -219,7 +227,7 @@ class Simulation {
         work += costs_.hierarchy_seconds;
         continue;
       }
-      if (t.spec.level >= 1 && t.spec.first > 0) work += costs_.vertical_start_seconds[l];
+      if (t.spec.level >= 1 && t.spec.first > 0 && !t.spec.stitch) work += costs_.vertical_start_seconds[l];
       for (int f = t.spec.first + 1; f <= t.spec.last; ++f) work += step_cost(t.spec.level, f);
     }
     return work;
@@ -246,7 +254,8 @@ class Simulation {
   std::vector<SimTask> tasks_;
   std::vector<double> stored_;                // per (level, frame): time stored, -1 while not
   std::vector<std::vector<int>> needed_by_;   // per (level, frame): tasks that need it before dispatch
-  std::vector<int> step_owner_;               // per (level >= 1, frame t): the task solving t -> t + 1
+  std::vector<std::vector<int>> guide_needed_by_;  // per (level, frame): tasks that need its guide frame
+  std::vector<std::vector<int>> step_owners_;  // per (level >= 1, frame t): the tasks solving t -> t + 1
   std::set<std::tuple<int, int, int>> ready_;  // (level, first, task index)
   std::priority_queue<Event, std::vector<Event>, Later> events_;
 };

@@ -19,6 +19,7 @@ void validate(const GraphOptions& o, const std::vector<int>& seams) {
   require_at_least("levels", o.levels, 1);
   require_at_least("subsets", o.subsets, 1);
   require_at_least("preview_chunk", o.preview_chunk, 0);
+  require_at_least("stitch", o.stitch, 0);
   if (seams.empty()) return;
   const int subsets = std::min(o.subsets, o.frames);  // K is clamped to N
   if (static_cast<int>(seams.size()) + 1 != subsets)
@@ -64,7 +65,10 @@ void add_refinement(const GraphOptions& o, const std::vector<int>& seams, std::v
       const int a = boundary(k), b = boundary(k + 1);
       NewTask t = level_task(level, a, b);
       t.needs = subset_needs(level, a, b);
+      std::optional<NewTask> stitch = a > 0 ? stitch_task(level, a, b, o.stitch) : std::nullopt;
+      if (stitch) t.guides = stitch->last - stitch->first;
       out.push_back(std::move(t));
+      if (stitch) out.push_back(std::move(*stitch));
     }
   }
 }
@@ -86,6 +90,20 @@ std::vector<FrameKey> subset_needs(int level, int first, int last) {
   // first step overlapping its feeder's first step. b = a + 1 is fed only stored frames.
   if (level >= 2 && a > 0 && b > a + 1) needs.push_back(FrameKey{level - 1, a + 1});
   return needs;
+}
+
+std::optional<NewTask> stitch_task(int level, int seam, int last, int stitch) {
+  const int w = std::min(stitch, last - seam);
+  if (w < 2 || level < 1 || seam < 1) return std::nullopt;
+  NewTask t = level_task(level, seam, seam + w - 1);
+  t.stitch = true;
+  // Its own level's frames s - 1 and s (a horizontal continuation), the level below as for any task
+  // (s, s + w - 1], and the later subset's frames s + 1 .. s + w - 1 it is guided toward.
+  t.needs = subset_needs(level, seam, t.last);
+  t.needs.push_back(FrameKey{level, seam - 1});
+  t.needs.push_back(FrameKey{level, seam});
+  for (int f = seam + 1; f <= t.last; ++f) t.guide_needs.push_back(FrameKey{level, f});
+  return t;
 }
 
 // Chunks do not add parallelism (the chain is sequential) nor change the frames (a horizontal
@@ -134,7 +152,13 @@ std::optional<FrameRange> fed_frames(const NewTask& task) {
 std::optional<FrameRange> produced_frames(const NewTask& task) {
   if (task.kind != protocol::TaskKind::level) return std::nullopt;
   fed_frames(task);  // the same checks
-  return FrameRange{task.level, task.first == 0 ? 0 : task.first + 1, task.last};
+  return FrameRange{task.level, task.first == 0 ? 0 : task.first + 1 + task.guides, task.last};
+}
+
+std::optional<FrameRange> guide_frames(const NewTask& task) {
+  if (task.kind != protocol::TaskKind::level || task.guides <= 0) return std::nullopt;
+  fed_frames(task);
+  return FrameRange{task.level, task.first + 1, task.first + task.guides};
 }
 
 }  // namespace pd::farm

@@ -13,6 +13,15 @@
 //      preview): strictly increasing in (0, N), subsets - 1 of them. The first subset starts from the level's initial state at frame 0, the
 //      others vertically (safe upsampling of level l - 1's frame a); one whose vertical start is
 //      refused continues horizontally instead (TaskStore::continue_horizontally adds the needs).
+//   4. with a stitch width W >= 2 (GraphOptions::stitch), at each seam s of a refinement level whose
+//      later subset (s, b] starts vertically: a stitch task (s, s + w - 1], w = min(W, b - s) (none
+//      when w < 2). The later subset stores its frames s + 1 .. s + w - 1 as guide frames (NewTask::
+//      guides = w - 1), not as the level's frames; the stitch task continues the earlier subset
+//      horizontally from the level's frames s - 1 and s and solves those frames itself, guided toward
+//      the guide frames with a weight ramped up to land on the later subset by s + w - 1
+//      (progressive/level_task.h, docs/progressive.md "Stitching a seam"), so a seam does not pop.
+//      It needs the level's frames s - 1 and s, the guide frames, and the level below as a subset
+//      (s, s + w - 1] would. The level above reads the stitched frames like any others.
 // Every task but the hierarchy task waits for the hierarchy task (after_hierarchy).
 //
 // Frame dependencies (PD eq. 5): step t -> t + 1 of level l >= 1 reads level l - 1's frames t and
@@ -37,7 +46,12 @@ struct GraphOptions {
   int subsets = 1;         // K: time subsets of each level l >= 1 (clamped to N)
   int preview_chunk = 0;   // frames per level-0 chunk; 0: default_preview_chunk(frames); clamped to N
   bool preview_only = false;  // no refinement tasks (pd refine adds them later: refinement_tasks)
+  int stitch = 0;          // W: frames a seam is stitched over (item 4 above); 0 or 1: no stitch
 };
+
+// The default stitch width: 16 frames removed every visible seam measured on the flag and drape-gear
+// (docs/progressive.md, "Stitching a seam"), for about 16 of the level's steps per seam.
+constexpr int kDefaultStitchFrames = 16;
 
 // The level-0 chunk length used when GraphOptions::preview_chunk is 0: min(50, N) frames.
 int default_preview_chunk(int frames);
@@ -63,13 +77,21 @@ struct FrameRange {
 // for the job's graph and for a subset whose seam moved (TaskStore::move_seam).
 std::vector<pd::FrameKey> subset_needs(int level, int first, int last);
 
+// The stitch task of the seam s of a refinement level whose later subset is (s, b] (item 4 above), or
+// nullopt when min(stitch, b - s) < 2. Used for the job's graph and for a seam that moved.
+std::optional<pd::NewTask> stitch_task(int level, int seam, int last, int stitch);
+
 // The frames of level l - 1 a level-l task (a, b], l >= 1, is fed: max(a - 1, 0) .. b - 1 (the
 // protocol's BelowFrame messages). nullopt for the hierarchy task and level-0 tasks. Throws
 // std::invalid_argument for a level task with level < 0, first < 0 or last <= first.
 std::optional<FrameRange> fed_frames(const pd::NewTask& task);
 
-// The frames of its own level a level task (a, b] stores: a + 1 .. b, and frame 0 too when a = 0 (the
-// level's initial state, sent first). nullopt for the hierarchy task. Same checks as fed_frames.
+// The frames of its own level a level task (a, b] stores: a + 1 + guides .. b, and frame 0 too when
+// a = 0 (the level's initial state, sent first). nullopt for the hierarchy task. Same checks as
+// fed_frames.
 std::optional<FrameRange> produced_frames(const pd::NewTask& task);
+
+// The guide frames a later subset stores instead (a + 1 .. a + guides); nullopt when it has none.
+std::optional<FrameRange> guide_frames(const pd::NewTask& task);
 
 }  // namespace pd::farm

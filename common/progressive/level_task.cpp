@@ -58,6 +58,8 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
   if (inputs.stitch_frames < 0) fail(task, "stitch_frames must be >= 0");
   if (inputs.stitch_frames > 0 && (!horizontal || !inputs.stitch_target))
     fail(task, "a stitch continues from own frames a-1 and a toward a target");
+  const int seam = inputs.stitch_seam < 0 ? a : inputs.stitch_seam;
+  if (inputs.stitch_frames > 0 && seam > a) fail(task, "the stitch's seam " + std::to_string(seam) + " is after the start");
 
   SceneSystem sys = build_level_system(scene, hierarchy, l, options.system);
   const Eigen::Index n = sys.x0.size();
@@ -128,9 +130,9 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
 
   Eigen::VectorXd x_hat;
   for (int t = a; t < b; ++t) {
-    if (guide && t + 1 <= a + inputs.stitch_frames)  // after the stitch the guide keeps its last target, at weight 0
-      guide->set_guide(inputs.stitch_target(t + 1), stitch_weight(double(t + 1 - a) / inputs.stitch_frames));
-    else if (guide && t == a + inputs.stitch_frames)
+    if (guide && t + 1 <= seam + inputs.stitch_frames)  // after the stitch the guide keeps its last target, at weight 0
+      guide->set_guide(inputs.stitch_target(t + 1), stitch_weight(double(t + 1 - seam) / inputs.stitch_frames));
+    else if (guide && t == seam + inputs.stitch_frames)
       guide->set_weight(0.0);
     StepInput in;
     if (refining) {

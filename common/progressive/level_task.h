@@ -63,7 +63,7 @@ struct LevelTaskInputs {
   // for bit; absent, it balances a new one at its first step.
   std::optional<double> own_kappa;
   // A stitch (physics/guide.h): with a horizontal continuation from own frames a-1 and a, the steps
-  // to frames a+1..a+stitch_frames add a guide toward stitch_target(f) (the later subset's frame f of
+  // to frames a+1..a+stitch_frames (from the seam, below) add a guide toward stitch_target(f) (the later subset's frame f of
   // the same level, stacked) whose weight ramps as kStitchWeight * smoothstep((f - a) / stitch_frames):
   // from 0 to 100 times the inertia's stiffness. Later subset frames solve the same step problems
   // (their inertia targets come from the level below, not from their own past), so each is a
@@ -71,6 +71,10 @@ struct LevelTaskInputs {
   // subset's frame to the solver's tolerance. stitch_frames = 0: no stitch.
   std::function<Eigen::VectorXd(int f)> stitch_target;
   int stitch_frames = 0;
+  // The frame the stitch's ramp counts from (the seam s: the guide acts on frames s+1..s+stitch_frames
+  // with weight kStitchWeight * ramp((f - s) / stitch_frames)); -1: the task's first frame a. A farm
+  // stitch task resumed after a lost worker starts at a later frame but keeps its seam's ramp.
+  int stitch_seam = -1;
 };
 
 // The stitch guide's weight at its last frame, in units of the inertia's stiffness M / h^2.

@@ -20,7 +20,8 @@ Parts encode(const Welcome& m) {
 }
 
 // Data parts, in order: the hierarchy blob when present ("hierarchy_bytes"), then own_before and
-// own_start when present ("own_vertices" = n, 3 n doubles each).
+// own_start when present ("own_vertices" = n, 3 n doubles each), then the guides ("guides" of them,
+// 3 n doubles each; only with own frames).
 Parts encode(const AssignTask& m) {
   Json h = wire::header(wire::kAssign);
   h["attempt"] = m.attempt;
@@ -53,6 +54,16 @@ Parts encode(const AssignTask& m) {
     data.push_back(wire::doubles_part(*m.own_start));
   }
   if (m.own_kappa) h["own_kappa"] = wire::number(*m.own_kappa);
+  if (!m.guides.empty()) {
+    if (!m.own_before) throw ProtocolError("assign: field 'guides': a stitch continues from own frames, none given");
+    for (const std::vector<double>& g : m.guides) {
+      if (g.size() != m.own_before->size())
+        throw ProtocolError("assign: field 'guides': " + std::to_string(g.size()) + " numbers, own_before has " +
+                            std::to_string(m.own_before->size()));
+      data.push_back(wire::doubles_part(g));
+    }
+    h["guides"] = m.guides.size();
+  }
   return wire::finish(h, std::move(data));
 }
 
@@ -129,12 +140,17 @@ Command decode_assign(const Message& msg) {
   const std::size_t blob_bytes = has_blob ? msg.byte_count("hierarchy_bytes") : 0;
   const bool has_own = f.has("own_vertices");
   const int64_t own_vertices = has_own ? msg.vertex_count("own_vertices") : 0;
-  msg.expect_parts(1 + (has_blob ? 1 : 0) + (has_own ? 2 : 0));
+  const int guides = f.has("guides") ? f.count("guides") : 0;
+  if (guides > 0 && (!has_own || m.kind != TaskKind::level || guides != m.last - m.first))
+    throw ProtocolError("assign: field 'guides': " + std::to_string(guides) + " guide frames need own frames and " +
+                        "one per frame first + 1 .. last (" + std::to_string(m.last - m.first) + ")");
+  msg.expect_parts(1 + (has_blob ? 1 : 0) + (has_own ? 2 + guides : 0));
   std::size_t next = 1;
   if (has_blob) m.hierarchy_blob = msg.blob(next++, blob_bytes, "hierarchy_bytes");
   if (has_own) {
     m.own_before = msg.doubles(next++, own_vertices);
     m.own_start = msg.doubles(next++, own_vertices);
+    for (int g = 0; g < guides; ++g) m.guides.push_back(msg.doubles(next++, own_vertices));
   }
   return m;
 }

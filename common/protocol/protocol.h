@@ -40,7 +40,9 @@ namespace pd::protocol {
 // 4: TaskFailed.failure (FailureKind), TaskStatus.horizontal.
 // 5: the prolonged Hessian name "auto" (SubmitJob's default; AssignTask.hessian may carry it).
 // 6: Hello.blas_kernel.
-constexpr int kProtocolVersion = 6;
+// 7: seam stitches: AssignTask.guides, SubmitJob.stitch, RefineJob.stitch, TaskStatus.stitch,
+//    JobStatus.stitch.
+constexpr int kProtocolVersion = 7;
 
 // Upper bound on a whole message (all parts), bytes; larger messages are refused when decoded (and
 // sockets set ZMQ_MAXMSGSIZE to it). 1 GiB: a job file fetched in one reply must fit.
@@ -152,6 +154,10 @@ struct AssignTask {
   // parts after the blob) and, with contact, the barrier stiffness at frame start (J/m^4).
   std::optional<std::vector<double>> own_before, own_start;
   std::optional<double> own_kappa;
+  // A seam's stitch task (farm/task_graph.h; it continues horizontally, so own frames are present):
+  // the later subset's guide frames first + 1 .. last, in order (3 n_l doubles each, data parts after
+  // the own frames; "guides" in the header counts them). Empty for any other task.
+  std::vector<std::vector<double>> guides;
 };
 
 // A frame of level `level` (the level below the task's) for the running attempt.
@@ -271,12 +277,14 @@ struct SubmitJob {
   int frames = 0;      // 0: the scene's frame count
   int preview_chunk = 0;  // frames per preview (level 0) task; 0: the scheduler's default
   std::string hessian = "auto";  // progressive/level_system.h: parse_level_hessian
+  int stitch = 0;      // W: frames each seam is stitched over (farm/task_graph.h); 0: none
 };
 
 // Add the refinement levels to a preview-only job (running or done).
 struct RefineJob {
   int64_t job = 0;
   int subsets = 1;
+  int stitch = 0;      // as SubmitJob::stitch
 };
 
 // Status of one job (job != 0) or of every job.
@@ -361,6 +369,7 @@ struct TaskStatus {
   // A subset (level >= 1, first > 0) whose vertical start was refused and that continues from its
   // own level's frames instead (FailureKind::vertical_start_refused).
   bool horizontal = false;
+  bool stitch = false;    // a seam's stitch task (farm/task_graph.h)
 };
 
 struct JobStatus {
@@ -371,6 +380,7 @@ struct JobStatus {
   int priority = 0;
   int frames = 0;         // N
   int subsets = 1;
+  int stitch = 0;         // W (SubmitJob::stitch)
   bool preview_only = false;
   double elapsed_seconds = 0.0;  // since submission (until the end for a finished job)
   double eta_seconds = -1.0;     // estimated time to finish, -1 when unknown

@@ -36,6 +36,7 @@ Json task_json(const TaskStatus& t) {
   j["attempts"] = t.attempts;
   j["reason"] = t.reason;
   j["horizontal"] = t.horizontal;
+  j["stitch"] = t.stitch;
   return j;
 }
 
@@ -48,6 +49,7 @@ Json job_json(const JobStatus& s) {
   j["priority"] = s.priority;
   j["frames"] = s.frames;
   j["subsets"] = s.subsets;
+  j["stitch"] = s.stitch;
   j["preview_only"] = s.preview_only;
   j["elapsed_seconds"] = wire::number(s.elapsed_seconds);
   j["eta_seconds"] = wire::number(s.eta_seconds);
@@ -193,6 +195,7 @@ TaskStatus read_task(const Fields& f) {
   t.attempts = f.count("attempts");
   t.reason = f.text("reason");
   t.horizontal = f.boolean("horizontal");
+  t.stitch = f.boolean("stitch");
   return t;
 }
 
@@ -205,6 +208,7 @@ JobStatus read_job(const Fields& f) {
   s.priority = f.integer("priority");
   s.frames = f.count("frames");
   s.subsets = f.count("subsets");
+  s.stitch = f.count("stitch");
   s.preview_only = f.boolean("preview_only");
   s.elapsed_seconds = f.number("elapsed_seconds");
   s.eta_seconds = f.number("eta_seconds");

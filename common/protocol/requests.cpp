@@ -33,6 +33,7 @@ Parts encode(const SubmitJob& m) {
   h["frames"] = m.frames;
   h["preview_chunk"] = m.preview_chunk;
   h["hessian"] = m.hessian;
+  h["stitch"] = m.stitch;
   return wire::finish(h);
 }
 
@@ -40,6 +41,7 @@ Parts encode(const RefineJob& m) {
   Json h = wire::header(wire::kRefine);
   h["job"] = m.job;
   h["subsets"] = m.subsets;
+  h["stitch"] = m.stitch;
   return wire::finish(h);
 }
 
@@ -88,6 +90,7 @@ Request decode_submit(const Message& msg) {
   m.frames = f.count("frames");
   m.preview_chunk = f.count("preview_chunk");
   m.hessian = f.text("hessian");
+  m.stitch = f.count("stitch");
   return m;
 }
 
@@ -97,6 +100,7 @@ Request decode_refine(const Message& msg) {
   RefineJob m;
   m.job = f.id("job");
   m.subsets = f.count("subsets");
+  m.stitch = f.count("stitch");
   return m;
 }
 

@@ -241,7 +241,7 @@ using protocol::TaskState;
 using sqlite::Db;
 using sqlite::Statement;
 
-// Schema version 2 (1 had no frame data, no hierarchy blobs). States are their protocol names; ids of "none" are NULL; times are seconds since
+// Schema version 3 (1 had no frame data, no hierarchy blobs; 2 no stitches: kUpgrade2To3). States are their protocol names; ids of "none" are NULL; times are seconds since
 // the Unix epoch.
 const char* const kSchema = R"sql(
 CREATE TABLE jobs(
@@ -261,7 +261,8 @@ CREATE TABLE jobs(
   reason TEXT NOT NULL DEFAULT '',
   hierarchy_hash TEXT NOT NULL DEFAULT '',
   submitted REAL NOT NULL,
-  finished REAL NOT NULL DEFAULT 0);  -- 0 while the job has not ended
+  finished REAL NOT NULL DEFAULT 0,   -- 0 while the job has not ended
+  stitch INTEGER NOT NULL DEFAULT 0); -- W, frames per seam stitch; 0: none
 CREATE TABLE workers(
   id INTEGER PRIMARY KEY,
   name TEXT NOT NULL,
@@ -281,7 +282,9 @@ CREATE TABLE tasks(
   state TEXT NOT NULL,
   reason TEXT NOT NULL DEFAULT '',
   worker_id INTEGER REFERENCES workers(id),
-  attempts INTEGER NOT NULL DEFAULT 0);
+  attempts INTEGER NOT NULL DEFAULT 0,
+  stitch INTEGER NOT NULL DEFAULT 0,  -- 1: a seam's stitch task
+  guides INTEGER NOT NULL DEFAULT 0); -- its frames first + 1 .. first + guides are guide frames
 CREATE INDEX tasks_by_job ON tasks(job_id, state);
 CREATE INDEX tasks_by_state ON tasks(state, job_id);
 CREATE TABLE task_after(
@@ -293,6 +296,7 @@ CREATE TABLE task_frames(
   task_id INTEGER NOT NULL REFERENCES tasks(id),
   level INTEGER NOT NULL,
   frame INTEGER NOT NULL,
+  guide INTEGER NOT NULL DEFAULT 0,   -- 1: a guide frame (guide_frames), 0: a frame (frames)
   PRIMARY KEY(task_id, level, frame)) WITHOUT ROWID;
 CREATE TABLE frames(
   job_id INTEGER NOT NULL REFERENCES jobs(id),
@@ -303,6 +307,12 @@ CREATE TABLE frames(
   stat_names TEXT NOT NULL,           -- JSON array of the frame's statistic names, in report order
   stat_values BLOB NOT NULL,          -- one float64 per name
   center_of_mass BLOB NOT NULL,       -- 3 float64 per object, or empty
+  PRIMARY KEY(job_id, level, frame));
+CREATE TABLE guide_frames(
+  job_id INTEGER NOT NULL REFERENCES jobs(id),
+  level INTEGER NOT NULL,
+  frame INTEGER NOT NULL,
+  positions BLOB NOT NULL,            -- as frames.positions
   PRIMARY KEY(job_id, level, frame));
 CREATE TABLE hierarchies(
   job_id INTEGER PRIMARY KEY REFERENCES jobs(id),
@@ -328,13 +338,26 @@ CREATE TABLE events(
 CREATE INDEX events_by_job ON events(job_id);
 )sql";
 
+const char* const kUpgrade2To3 = R"sql(
+ALTER TABLE jobs ADD COLUMN stitch INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE tasks ADD COLUMN stitch INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE tasks ADD COLUMN guides INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE task_frames ADD COLUMN guide INTEGER NOT NULL DEFAULT 0;
+CREATE TABLE guide_frames(
+  job_id INTEGER NOT NULL REFERENCES jobs(id),
+  level INTEGER NOT NULL,
+  frame INTEGER NOT NULL,
+  positions BLOB NOT NULL,
+  PRIMARY KEY(job_id, level, frame));
+)sql";
+
 const char* const kJobColumns =
     "id, name, scene_name, scene_text, scene_files, frames, levels, subsets, priority, preview_only, "
-    "preview_chunk, hessian, state, reason, hierarchy_hash, submitted, finished";
+    "preview_chunk, hessian, state, reason, hierarchy_hash, submitted, finished, stitch";
 // The current attempt of a task: its open one (a running task has at most one).
 const char* const kTaskColumns =
     "t.id, t.job_id, t.kind, t.level, t.first, t.last, t.state, t.reason, t.worker_id, t.attempts, "
-    "(SELECT MAX(a.id) FROM attempts a WHERE a.task_id = t.id AND a.ended IS NULL)";
+    "(SELECT MAX(a.id) FROM attempts a WHERE a.task_id = t.id AND a.ended IS NULL), t.stitch, t.guides";
 const char* const kWorkerColumns = "id, name, host, version, cores, state, last_seen, tasks_done";
 
 namespace {
@@ -394,6 +417,7 @@ JobRow job_from(const Db& db, const Statement& st) {
   r.hierarchy_hash = st.column_text(14);
   r.submitted = st.column_double(15);
   r.finished = st.column_double(16);
+  r.spec.stitch = st.column_int(17);
   return r;
 }
 
@@ -411,6 +435,8 @@ TaskRow task_from(const Db& db, const Statement& st) {
   r.worker = st.column_optional_int64(8).value_or(0);
   r.attempts = st.column_int(9);
   if (r.state == TaskState::running) r.attempt = st.column_optional_int64(10).value_or(0);
+  r.stitch = st.column_int(11) != 0;
+  r.guides = st.column_int(12);
   return r;
 }
 
@@ -438,7 +464,7 @@ JobState job_state_from(const Db& db, const std::string& name, int64_t job) {
 bool depends_on(const GraphTask& t2, const GraphTask& t1) {
   if (t2.kind != TaskKind::level || t2.id == t1.id) return false;
   if (t1.kind == TaskKind::hierarchy) return true;
-  if (t2.level == t1.level) return t2.first == t1.last;
+  if (t2.level == t1.level) return t2.first == t1.last || (t2.stitch && !t1.stitch && t2.first == t1.first);
   if (t2.level != t1.level + 1) return false;
   const int produced_from = t1.first == 0 ? 0 : t1.first + 1;
   const int read_from = std::max(t2.first - 1, 0), read_to = t2.last - 1;

@@ -142,6 +142,8 @@ namespace pd::task_store_detail {
 
 // The SQL that creates a new store's tables and indexes (schema version kTaskStoreSchemaVersion).
 extern const char* const kSchema;
+// Upgrades a version-2 store to version 3 (the stitch columns and guide_frames).
+extern const char* const kUpgrade2To3;
 
 // Row readers: a SELECT lists these columns (in this order) and the reader turns its current row into
 // the header's row type. A stored name this program does not know, or damaged scene_files JSON, throws
@@ -162,6 +164,7 @@ struct GraphTask {
   protocol::TaskKind kind = protocol::TaskKind::level;
   int level = 0, first = 0, last = 0;
   protocol::TaskState state = protocol::TaskState::waiting;
+  bool stitch = false;  // a seam's stitch task: also needs the guide frames of the later subset at `first`
 };
 
 // Whether t2 needs frames (or the hierarchy) that t1 produces; both of the same job.

@@ -123,8 +123,10 @@ void promote(Db& db, int64_t job) {
     UPDATE tasks SET state = ?2 WHERE job_id = ?1 AND state = ?3
       AND NOT EXISTS (SELECT 1 FROM task_after a JOIN tasks d ON d.id = a.after_task_id
                       WHERE a.task_id = tasks.id AND d.state <> ?4)
-      AND NOT EXISTS (SELECT 1 FROM task_frames f WHERE f.task_id = tasks.id AND NOT EXISTS
-                      (SELECT 1 FROM frames s WHERE s.job_id = ?1 AND s.level = f.level AND s.frame = f.frame)))sql",
+      AND NOT EXISTS (SELECT 1 FROM task_frames f WHERE f.task_id = tasks.id AND f.guide = 0 AND NOT EXISTS
+                      (SELECT 1 FROM frames s WHERE s.job_id = ?1 AND s.level = f.level AND s.frame = f.frame))
+      AND NOT EXISTS (SELECT 1 FROM task_frames f WHERE f.task_id = tasks.id AND f.guide = 1 AND NOT EXISTS
+                      (SELECT 1 FROM guide_frames g WHERE g.job_id = ?1 AND g.level = f.level AND g.frame = f.frame)))sql",
           job, to_string(TaskState::ready), to_string(TaskState::waiting), to_string(TaskState::done));
 }
 
@@ -169,6 +171,12 @@ void check_new_task(const Db& db, const std::string& where, const NewTask& t, in
   if (t.kind == TaskKind::hierarchy && t.after_hierarchy)
     db.fail_with(where + "a hierarchy task cannot wait for itself");
   for (const FrameKey& k : t.needs) check_frame(db, (where + "needs").c_str(), job, info, k);
+  for (const FrameKey& k : t.guide_needs) check_frame(db, (where + "guide_needs").c_str(), job, info, k);
+  if (t.guides < 0 || (t.kind == TaskKind::level && t.first + t.guides >= t.last))
+    db.fail_with(where + "guides " + str(t.guides) + ": a task (" + str(t.first) + ", " + str(t.last) +
+                 "] keeps at least its last frame");
+  if (t.stitch && (t.kind != TaskKind::level || t.level < 1 || t.first < 1 || t.guides != 0))
+    db.fail_with(where + "a stitch task is a level task of a refinement level after frame 0, with no guides");
 }
 
 // Inserts `tasks` (in their order, so ids follow it) with their dependencies, as waiting; the caller
@@ -179,7 +187,8 @@ std::vector<int64_t> insert_tasks(Db& db, const char* what, int64_t job, const J
   if (tasks.empty()) db.fail_with(std::string(what) + ": job " + str(job) + ": no tasks given");
   Statement existing(db, "SELECT id FROM tasks WHERE job_id = ?1 AND kind = ?2 ORDER BY id");
   int64_t hierarchy = existing.bind_all(job, to_string(TaskKind::hierarchy)).step() ? existing.column_int64(0) : 0;
-  Statement insert(db, "INSERT INTO tasks(job_id, kind, level, first, last, state) VALUES(?1, ?2, ?3, ?4, ?5, ?6)");
+  Statement insert(db, "INSERT INTO tasks(job_id, kind, level, first, last, state, stitch, guides) "
+                       "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)");
   std::vector<int64_t> ids;
   for (size_t i = 0; i < tasks.size(); ++i) {
     const NewTask& t = tasks[i];
@@ -188,13 +197,14 @@ std::vector<int64_t> insert_tasks(Db& db, const char* what, int64_t job, const J
     check_new_task(db, where, t, job, info);
     if (t.kind == TaskKind::hierarchy && hierarchy != 0)
       db.fail_with(where + "job " + str(job) + " already has a hierarchy task (" + str(hierarchy) + ")");
-    insert.bind_all(job, to_string(t.kind), t.level, t.first, t.last, to_string(TaskState::waiting)).run();
+    insert.bind_all(job, to_string(t.kind), t.level, t.first, t.last, to_string(TaskState::waiting), t.stitch ? 1 : 0,
+                    t.guides).run();
     insert.reset();
     ids.push_back(db.last_insert_id());
     if (t.kind == TaskKind::hierarchy) hierarchy = ids.back();
   }
   Statement after(db, "INSERT INTO task_after(task_id, after_task_id) VALUES(?1, ?2)");
-  Statement needs(db, "INSERT OR IGNORE INTO task_frames(task_id, level, frame) VALUES(?1, ?2, ?3)");
+  Statement needs(db, "INSERT OR IGNORE INTO task_frames(task_id, level, frame, guide) VALUES(?1, ?2, ?3, ?4)");
   for (size_t i = 0; i < tasks.size(); ++i) {
     if (tasks[i].after_hierarchy) {
       if (hierarchy == 0)
@@ -204,7 +214,11 @@ std::vector<int64_t> insert_tasks(Db& db, const char* what, int64_t job, const J
       after.reset();
     }
     for (const FrameKey& k : tasks[i].needs) {
-      needs.bind_all(ids[i], k.level, k.frame).run();
+      needs.bind_all(ids[i], k.level, k.frame, 0).run();
+      needs.reset();
+    }
+    for (const FrameKey& k : tasks[i].guide_needs) {
+      needs.bind_all(ids[i], k.level, k.frame, 1).run();
       needs.reset();
     }
   }
@@ -227,6 +241,41 @@ TaskRow close_refused_start(Db& db, const char* what, int64_t task, int64_t atte
   return t;
 }
 
+// The frames of `level` in [first, last] stored in `table` (frames or guide_frames, this file's names),
+// sorted.
+std::vector<int> frames_between(Db& db, const char* what, const char* table, int64_t job, int level, int first,
+                                int last) {
+  check_frame(db, what, job, job_info(db, job), FrameKey{level, 0});
+  Statement st(db, std::string("SELECT frame FROM ") + table +
+                       " WHERE job_id = ?1 AND level = ?2 AND frame BETWEEN ?3 AND ?4 ORDER BY frame");
+  st.bind_all(job, level, first, last);
+  std::vector<int> frames;
+  while (st.step()) frames.push_back(st.column_int(0));
+  return frames;
+}
+
+// A subset whose vertical start went away (continue_horizontally, move_seam) has no seam at its first
+// frame to stitch: its guides become 0, and the stitch task of its seam, which waits for those guide
+// frames (it cannot have run without them), is removed.
+void remove_stitch_of(Db& db, const TaskRow& subset) {
+  run_sql(db, "UPDATE tasks SET guides = 0 WHERE id = ?1", subset.id);
+  Statement find(db, "SELECT id, state FROM tasks WHERE job_id = ?1 AND level = ?2 AND first = ?3 AND stitch = 1");
+  find.bind_all(subset.job, subset.level, subset.first);
+  std::vector<int64_t> stitches;
+  while (find.step()) {
+    if (find.column_text(1) != to_string(TaskState::waiting))
+      db.fail_with("task " + str(subset.id) + ": its seam's stitch task " + str(find.column_int64(0)) + " is " +
+                   find.column_text(1) + ", not waiting");
+    stitches.push_back(find.column_int64(0));
+  }
+  for (const int64_t id : stitches) {
+    run_sql(db, "DELETE FROM task_frames WHERE task_id = ?1", id);
+    run_sql(db, "DELETE FROM task_after WHERE task_id = ?1", id);
+    run_sql(db, "DELETE FROM events WHERE task_id = ?1", id);
+    run_sql(db, "DELETE FROM tasks WHERE id = ?1", id);
+  }
+}
+
 // The tasks of a job in the given order (an ORDER BY list of this file, never a value).
 std::vector<TaskRow> job_tasks(Db& db, int64_t job, const char* order) {
   Statement st(db, std::string("SELECT ") + kTaskColumns + " FROM tasks t WHERE t.job_id = ?1 ORDER BY " + order);
@@ -245,7 +294,7 @@ void block_dependents(Db& db, const TaskRow& failed, const std::string& reason) 
   size_t root = 0;
   for (const TaskRow& r : rows) {
     if (r.id == failed.id) root = graph.size();
-    graph.push_back(GraphTask{r.id, r.kind, r.level, r.first, r.last, r.state});
+    graph.push_back(GraphTask{r.id, r.kind, r.level, r.first, r.last, r.state, r.stitch});
   }
   const std::string why = block_reason(graph[root], reason);
   for (size_t i : dependents(graph, root)) {
@@ -317,6 +366,9 @@ TaskStore::TaskStore(const std::string& path) : impl_(std::make_unique<Impl>(pat
       db.exec(kSchema);
       // PRAGMA takes no parameters; the value is this program's constant.
       db.exec("PRAGMA user_version = " + std::to_string(kTaskStoreSchemaVersion));
+    } else if (v == 2) {
+      db.exec(kUpgrade2To3);
+      db.exec("PRAGMA user_version = " + std::to_string(kTaskStoreSchemaVersion));
     } else if (v == 0) {
       db.fail_with("not a task store (no schema version, " + str(n) + " schema objects)");
     } else if (v != kTaskStoreSchemaVersion) {
@@ -341,11 +393,11 @@ int64_t TaskStore::add_job(const NewJob& job, const std::vector<NewTask>& tasks)
   return impl_->write("add_job", [&] {
     check_new_job(db, job);
     Statement st(db, "INSERT INTO jobs(name, scene_name, scene_text, scene_files, frames, levels, subsets, priority, "
-                     "preview_only, preview_chunk, hessian, state, submitted) "
-                     "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)");
+                     "preview_only, preview_chunk, hessian, state, submitted, stitch) "
+                     "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14)");
     st.bind_all(job.name, job.scene.name, job.scene.text, files_to_json(db, job.scene.files), job.frames, job.levels,
                 job.subsets, job.priority, job.preview_only ? 1 : 0, job.preview_chunk, job.hessian,
-                to_string(JobState::queued), now())
+                to_string(JobState::queued), now(), job.stitch)
         .run();
     const int64_t id = db.last_insert_id();
     insert_tasks(db, "add_job", id, JobInfo{JobState::queued, job.frames, job.levels}, tasks);
@@ -419,8 +471,9 @@ void TaskStore::set_preview_only(int64_t job, bool preview_only) {
              preview_only ? 1 : 0);
 }
 
-void TaskStore::set_subsets(int64_t job, int subsets) {
-  update_row(impl_->db, "set_subsets", "job", "UPDATE jobs SET subsets = ?2 WHERE id = ?1", job, subsets);
+void TaskStore::set_subsets(int64_t job, int subsets, int stitch) {
+  update_row(impl_->db, "set_subsets", "job", "UPDATE jobs SET subsets = ?2, stitch = ?3 WHERE id = ?1", job, subsets,
+             stitch);
 }
 
 TaskRow TaskStore::task(int64_t id) const {
@@ -503,6 +556,7 @@ void TaskStore::continue_horizontally(int64_t task, int64_t attempt, const std::
   Db& db = impl_->db;
   impl_->write("continue_horizontally", [&] {
     const TaskRow t = close_refused_start(db, "continue_horizontally", task, attempt, message);
+    remove_stitch_of(db, t);
     for (const int frame : {t.first - 1, t.first})
       run_sql(db, "INSERT OR IGNORE INTO task_frames(task_id, level, frame) VALUES(?1, ?2, ?3)", task, t.level,
               frame);
@@ -512,7 +566,7 @@ void TaskStore::continue_horizontally(int64_t task, int64_t attempt, const std::
 }
 
 int64_t TaskStore::move_seam(int64_t task, int64_t attempt, int new_first, const std::vector<FrameKey>& needs,
-                             const std::string& message) {
+                             const std::optional<NewTask>& stitch, const std::string& message) {
   Db& db = impl_->db;
   int64_t bridge = 0;
   impl_->write("move_seam", [&] {
@@ -521,6 +575,14 @@ int64_t TaskStore::move_seam(int64_t task, int64_t attempt, int new_first, const
       db.fail_with("move_seam: task " + str(task) + " (" + str(t.first) + ", " + str(t.last) + "]: the new seam " +
                    str(new_first) + " is not inside it");
     close_refused_start(db, "move_seam", task, attempt, message);
+    remove_stitch_of(db, t);
+    if (stitch) {
+      if (!stitch->stitch || stitch->level != t.level || stitch->first != new_first || stitch->last >= t.last)
+        db.fail_with("move_seam: task " + str(task) + ": the stitch given is not one for level " + str(t.level) +
+                     " at the new seam " + str(new_first));
+      insert_tasks(db, "move_seam", t.job, job_info(db, t.job), {*stitch});
+      run_sql(db, "UPDATE tasks SET guides = ?2 WHERE id = ?1", task, stitch->last - stitch->first);
+    }
     run_sql(db, "UPDATE tasks SET first = ?2 WHERE id = ?1", task, new_first);
     run_sql(db, "DELETE FROM task_frames WHERE task_id = ?1", task);
     for (const FrameKey& k : needs)
@@ -721,14 +783,34 @@ std::vector<int> TaskStore::frames_stored(int64_t job) const {
 
 std::vector<int> TaskStore::stored_frames(int64_t job, int level, int first, int last) const {
   Db& db = impl_->db;
-  return impl_->read("stored_frames", [&] {
-    check_frame(db, "stored_frames", job, job_info(db, job), FrameKey{level, 0});
-    Statement st(db, "SELECT frame FROM frames WHERE job_id = ?1 AND level = ?2 AND frame BETWEEN ?3 AND ?4 "
-                     "ORDER BY frame");
-    st.bind_all(job, level, first, last);
-    std::vector<int> frames;
-    while (st.step()) frames.push_back(st.column_int(0));
-    return frames;
+  return impl_->read("stored_frames", [&] { return frames_between(db, "stored_frames", "frames", job, level, first, last); });
+}
+
+void TaskStore::record_guide_frame(int64_t job, const FrameKey& key, const std::vector<double>& positions) {
+  Db& db = impl_->db;
+  impl_->write("record_guide_frame", [&] {
+    check_frame(db, "record_guide_frame", job, job_info(db, job), key);
+    run_sql(db, "INSERT INTO guide_frames(job_id, level, frame, positions) VALUES(?1, ?2, ?3, ?4) "
+            "ON CONFLICT(job_id, level, frame) DO UPDATE SET positions = excluded.positions",
+            job, key.level, key.frame, doubles_blob(positions));
+    promote(db, job);
+  });
+}
+
+std::optional<std::vector<double>> TaskStore::guide_frame(int64_t job, const FrameKey& key) const {
+  Db& db = impl_->db;
+  return impl_->read("guide_frame", [&]() -> std::optional<std::vector<double>> {
+    check_frame(db, "guide_frame", job, job_info(db, job), key);
+    Statement st(db, "SELECT positions FROM guide_frames WHERE job_id = ?1 AND level = ?2 AND frame = ?3");
+    if (!st.bind_all(job, key.level, key.frame).step()) return std::nullopt;
+    return blob_doubles(db, st.column_blob(0), "positions");
+  });
+}
+
+std::vector<int> TaskStore::stored_guide_frames(int64_t job, int level, int first, int last) const {
+  Db& db = impl_->db;
+  return impl_->read("stored_guide_frames", [&] {
+    return frames_between(db, "stored_guide_frames", "guide_frames", job, level, first, last);
   });
 }
 

@@ -4,13 +4,18 @@
 //
 // Tables (schema version kTaskStoreSchemaVersion in PRAGMA user_version; another version is refused):
 //   jobs(id, name, scene_name, scene_text, scene_files (JSON), frames, levels, subsets, priority,
-//        preview_only, preview_chunk, hessian, state, reason, hierarchy_hash, submitted, finished)
-//   tasks(id, job_id, kind, level, first, last, state, reason, worker_id, attempts)
+//        preview_only, preview_chunk, hessian, state, reason, hierarchy_hash, submitted, finished,
+//        stitch)
+//   tasks(id, job_id, kind, level, first, last, state, reason, worker_id, attempts, stitch, guides)
 //   task_after(task_id, after_task_id)      the task waits until after_task_id is done (hierarchy)
-//   task_frames(task_id, level, frame)      frames of the job that must be stored before dispatch
+//   task_frames(task_id, level, frame, guide)  frames of the job that must be stored before dispatch
+//                                            (guide = 1: in guide_frames)
 //   frames(job_id, level, frame, kappa, positions, stat_names, stat_values, center_of_mass)
 //                                            every stored frame with its data (kappa: barrier
 //                                            stiffness at the frame, J/m^4, NULL without contact)
+//   guide_frames(job_id, level, frame, positions)  a later time subset's first frames, which a seam's
+//                                            stitch task is guided toward (farm/task_graph.h) and
+//                                            which are not the job's frames (never in its file)
 //   hierarchies(job_id, hash, blob)          the job's hierarchy file as its hierarchy task built it
 //   attempts(id, task_id, worker_id, started, ended, outcome, message)
 //   workers(id, name, host, version, cores, state, last_seen, tasks_done)
@@ -39,7 +44,9 @@
 
 namespace pd {
 
-constexpr int kTaskStoreSchemaVersion = 2;
+// 3: jobs.stitch, tasks.stitch and tasks.guides, task_frames.guide, guide_frames. A version-2 store is
+// upgraded in place when opened (its jobs have no stitches).
+constexpr int kTaskStoreSchemaVersion = 3;
 
 class StoreError : public std::runtime_error {
  public:
@@ -61,6 +68,7 @@ struct NewJob {
   bool preview_only = false;
   int preview_chunk = 0;
   std::string hessian;
+  int stitch = 0;  // W: frames each seam of a refinement level is stitched over (farm/task_graph.h); 0: none
 };
 
 // A task to add. `after_hierarchy`: waits for the job's hierarchy task (added in the same call, or
@@ -72,6 +80,13 @@ struct NewTask {
   int last = 0;
   bool after_hierarchy = false;
   std::vector<FrameKey> needs;
+  // Seam stitching (farm/task_graph.h): a stitch task (level l, (s, s + W - 1]) continues the level
+  // horizontally from its own frames s - 1 and s, guided toward the later subset's first frames, which
+  // it needs stored as guide frames (guide_needs); the later subset (s, b] reports its frames
+  // s + 1 .. s + guides as guide frames (guides = W - 1), not as the job's frames.
+  bool stitch = false;
+  int guides = 0;
+  std::vector<FrameKey> guide_needs;
 };
 
 // A stored frame's data, as the worker reported it and the job file holds it.
@@ -113,6 +128,8 @@ struct TaskRow {
   int64_t worker = 0;   // running: the worker holding it; done: the one that finished it; else 0
   int attempts = 0;     // attempts started
   int64_t attempt = 0;  // running: the current attempt id; else 0
+  bool stitch = false;  // a seam's stitch task (NewTask::stitch)
+  int guides = 0;       // its frames first + 1 .. first + guides are guide frames (NewTask::guides)
 };
 
 struct WorkerRow {
@@ -161,8 +178,8 @@ class TaskStore {
   std::string hierarchy_blob(int64_t job) const;  // StoreError when the job has none
   // Sets preview_only = false (pd refine).
   void set_preview_only(int64_t job, bool preview_only);
-  // Sets the job's subsets K (pd refine --subsets).
-  void set_subsets(int64_t job, int subsets);
+  // Sets the job's subsets K and stitch width W (pd refine --subsets, --stitch).
+  void set_subsets(int64_t job, int subsets, int stitch);
 
   // Tasks.
   TaskRow task(int64_t id) const;
@@ -183,17 +200,21 @@ class TaskStore {
   // the frames, so another worker would fail the same way: instead the task now also needs its own
   // level's frames a - 1 and a (stored by the subset before it) and continues horizontally from them
   // once they are (waiting until then). The attempt closes as "vertical start refused", which counts
-  // against neither the task nor the worker. Throws StoreError for another attempt or task.
+  // against neither the task nor the worker. Without a vertical start there is no seam to stitch: the
+  // task's guides become 0 and its seam's stitch task (waiting for guide frames it would never get) is
+  // removed. Throws StoreError for another attempt or task.
   void continue_horizontally(int64_t task, int64_t attempt, const std::string& message);
   // The running attempt `attempt` of a level >= 1 task (a, b], a > 0, found no safe upsampling at a
   // (as continue_horizontally), and the seam moves to a' (a < a' < b): the task becomes (a', b],
   // waiting for `needs` (the task graph's, farm/task_graph.h subset_needs) to start vertically
   // there, and a new task (a, a'] of the same level continues horizontally from the level's own
   // frames a-1 and a (a bridge over the frames the seam left). The attempt closes as "vertical start
-  // refused". Returns the bridge's id. Throws StoreError for another attempt or task, or a' outside
+  // refused". The seam's stitch task, if any, goes with it: replaced by `stitch` (the task graph's
+  // stitch for a', farm/task_graph.h stitch_task), or removed when that is nullopt; the task's guides
+  // follow. Returns the bridge's id. Throws StoreError for another attempt or task, or a' outside
   // (a, b).
   int64_t move_seam(int64_t task, int64_t attempt, int new_first, const std::vector<FrameKey>& needs,
-                    const std::string& message);
+                    const std::optional<NewTask>& stitch, const std::string& message);
   // Vertical starts of the task refused so far (attempts closed "vertical start refused").
   int refused_starts(int64_t task) const;
   // Whether the task continues horizontally from its own level's frames (level >= 1, first > 0, and
@@ -225,6 +246,11 @@ class TaskStore {
   std::vector<int> frames_stored(int64_t job) const;
   // Stored frames of a level in [first, last] (sorted).
   std::vector<int> stored_frames(int64_t job, int level, int first, int last) const;
+  // Guide frames (NewTask::guides): recorded like frames (promoting the tasks that need them; again
+  // replaces), but never the job's frames.
+  void record_guide_frame(int64_t job, const FrameKey& key, const std::vector<double>& positions);
+  std::optional<std::vector<double>> guide_frame(int64_t job, const FrameKey& key) const;  // nullopt when not stored
+  std::vector<int> stored_guide_frames(int64_t job, int level, int first, int last) const;  // sorted
 
   // Claims, in BEGIN IMMEDIATE: the best ready task of a queued or running job (highest job
   // priority, then oldest job, then lowest level, then earliest first frame), marked running on

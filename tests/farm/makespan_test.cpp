@@ -110,6 +110,23 @@ TEST(Makespan, VerticalStartOfASecondSubsetComputedByHand) {
   EXPECT_EQ(predict_plan({4, 2, 1, 4, false}, costs({1.0, 3.0}, {0.0, 2.0}, 0.0, 0.0), 3).makespan, 12.0);
 }
 
+// A seam's stitch (task_graph.h) computed by hand: N = 8, K = 2, W = 3, 3 workers; the preview (one
+// chunk, 1 s per step) ends at 8, when level 1's subsets are added. (0,4] ends at 8 + 4 * 2 = 16;
+// (4,8] starts vertically (1 s) and stores its guide frames 5, 6 at 11, 13 and its frames 7, 8 at 15,
+// 17. The stitch (4,6] needs level 1's frame 4 (16): it continues horizontally, frames 5 and 6 at 18
+// and 20. Without the stitch the job ends at 17.
+TEST(Makespan, AStitchRunsAfterTheEarlierSubsetEndsAndAddsItsStepsComputedByHand) {
+  GraphOptions o{8, 2, 2, 8, false};
+  const Costs c = costs({1.0, 2.0}, {0.0, 1.0}, 0.0, 0.0);
+  EXPECT_EQ(predict_plan(o, c, 3).makespan, 17.0);
+  o.stitch = 3;
+  const Plan p = predict_plan(o, c, 3);
+  EXPECT_EQ(p.makespan, 20.0);
+  ASSERT_EQ(p.level_finish.size(), 2u);
+  EXPECT_EQ(p.level_finish[1], 17.0);
+  EXPECT_DOUBLE_EQ(p.busy_fraction, (8.0 + 8.0 + 1.0 + 8.0 + 4.0) / (3 * 20.0));
+}
+
 // Per-frame step costs (a run's solve_seconds) replace the level's mean: N = 4, K = 2, 2 workers,
 // level 0 free (cost 0), level 1's steps cost 1, 1, 4, 4 s. Both subsets start at 0 (the preview is
 // done at once): (0,2] ends at 2, (2,4] at 8; the mean (2.5 s) would give 5 for both.

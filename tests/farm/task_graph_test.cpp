@@ -19,6 +19,12 @@ std::string describe(const NewTask& t) {
     s += " needs";
     for (const FrameKey& k : t.needs) s += " " + std::to_string(k.level) + ":" + std::to_string(k.frame);
   }
+  if (t.stitch) s += " stitch";
+  if (t.guides > 0) s += " guides " + std::to_string(t.guides);
+  if (!t.guide_needs.empty()) {
+    s += " guided by";
+    for (const FrameKey& k : t.guide_needs) s += " " + std::to_string(k.level) + ":" + std::to_string(k.frame);
+  }
   return s;
 }
 
@@ -266,12 +272,86 @@ TEST(TaskGraph, EveryFrameOfEveryLevelIsCoveredExactlyOnceOverAGrid) {
   EXPECT_EQ(cases, 25 * 30 * 13);
 }
 
+TEST(TaskGraph, EachSeamOfEachRefinementLevelGetsAStitchTaskGuidedByTheLaterSubsetsFirstFrames) {
+  GraphOptions o{20, 3, 2, 20, false};
+  o.stitch = 4;
+  const std::vector<std::string> expected = {
+      "hierarchy (0,0]",
+      "level 0 (0,20] after",
+      "level 1 (0,10] after needs 0:0",
+      "level 1 (10,20] after needs 0:9 0:10 guides 3",
+      "level 1 (10,13] after needs 0:9 0:10 1:9 1:10 stitch guided by 1:11 1:12 1:13",
+      "level 2 (0,10] after needs 1:0",
+      "level 2 (10,20] after needs 1:9 1:10 1:11 guides 3",
+      "level 2 (10,13] after needs 1:9 1:10 1:11 2:9 2:10 stitch guided by 2:11 2:12 2:13",
+  };
+  EXPECT_EQ(describe(job_tasks(o)), expected);
+  // The later subset stores 14..20; its 11..13 are guide frames, which the stitch task stores instead.
+  const std::vector<NewTask> tasks = job_tasks(o);
+  EXPECT_EQ(produced_frames(tasks[3])->first, 14);
+  EXPECT_EQ(guide_frames(tasks[3])->first, 11);
+  EXPECT_EQ(guide_frames(tasks[3])->last, 13);
+  EXPECT_EQ(produced_frames(tasks[4])->first, 11);
+  EXPECT_EQ(produced_frames(tasks[4])->last, 13);
+  EXPECT_FALSE(guide_frames(tasks[4]).has_value());
+  EXPECT_FALSE(guide_frames(tasks[2]).has_value());
+}
+
+TEST(TaskGraph, AStitchIsClampedToItsLaterSubsetAndLeftOutBelowTwoFrames) {
+  // Later subset (9, 10]: one frame, w = min(4, 1) = 1 < 2: no stitch, no guides.
+  GraphOptions o{10, 2, 2, 10, false};
+  o.stitch = 4;
+  EXPECT_EQ(describe(job_tasks(o, {9})).back(), "level 1 (9,10] after needs 0:8 0:9");
+  // Later subset (7, 10]: w = 3, the stitch (7, 9] guided by 8 and 9; the subset keeps only frame 10.
+  EXPECT_EQ(describe(job_tasks(o, {7})).back(), "level 1 (7,9] after needs 0:6 0:7 1:6 1:7 stitch guided by 1:8 1:9");
+  EXPECT_FALSE(stitch_task(1, 5, 10, 1).has_value());
+  EXPECT_FALSE(stitch_task(1, 5, 10, 0).has_value());
+  EXPECT_EQ(stitch_task(2, 5, 30, 16)->last, 20);
+}
+
+TEST(TaskGraph, WithStitchesEveryFrameIsStoredOnceAndEveryGuideFrameFeedsOneStitch) {
+  const int levels = 3;
+  int cases = 0;
+  for (int n = 1; n <= 25; ++n) {
+    for (int k = 1; k <= 8; ++k) {
+      for (int w = 0; w <= 6; ++w) {
+        GraphOptions o{n, levels, k, 0, false};
+        o.stitch = w;
+        std::vector<std::vector<int>> stored(levels, std::vector<int>(n + 1, 0)), guides = stored, guided = stored;
+        for (const NewTask& t : job_tasks(o)) {
+          if (const std::optional<FrameRange> own = produced_frames(t))
+            for (int f = own->first; f <= own->last; ++f) ++stored[t.level][f];
+          if (const std::optional<FrameRange> g = guide_frames(t))
+            for (int f = g->first; f <= g->last; ++f) ++guides[t.level][f];
+          for (const FrameKey& g : t.guide_needs) ++guided[g.level][g.frame];
+          EXPECT_EQ(t.stitch, !t.guide_needs.empty());
+          if (t.stitch) {
+            EXPECT_EQ(static_cast<int>(t.guide_needs.size()), t.last - t.first);
+            EXPECT_LE(t.last - t.first + 1, w);
+          }
+        }
+        for (int l = 0; l < levels; ++l)
+          for (int f = 0; f <= n; ++f) {
+            ASSERT_EQ(stored[l][f], 1) << "n " << n << " k " << k << " w " << w << " level " << l << " frame " << f;
+            ASSERT_EQ(guides[l][f], guided[l][f]) << "level " << l << " frame " << f;
+            ASSERT_LE(guides[l][f], 1);
+          }
+        ++cases;
+      }
+    }
+  }
+  EXPECT_EQ(cases, 25 * 8 * 7);
+}
+
 TEST(TaskGraph, BadOptionsAreRefusedNamingTheField) {
   EXPECT_EQ(error_of({0, 3, 1, 0, false}), "task graph: frames must be >= 1, got 0");
   EXPECT_EQ(error_of({10, 0, 1, 0, false}), "task graph: levels must be >= 1, got 0");
   EXPECT_EQ(error_of({10, 3, 0, 0, false}), "task graph: subsets must be >= 1, got 0");
   EXPECT_EQ(error_of({10, 3, 1, -2, false}), "task graph: preview_chunk must be >= 0, got -2");
   EXPECT_THROW(refinement_tasks({10, 3, -1, 0, false}), std::invalid_argument);
+  GraphOptions negative_stitch{10, 3, 2, 0, false};
+  negative_stitch.stitch = -1;
+  EXPECT_EQ(error_of(negative_stitch), "task graph: stitch must be >= 0, got -1");
 }
 
 }  // namespace

@@ -255,6 +255,19 @@ TEST(LevelTask, AStitchCarriesTheSingleRunIntoTheLaterSubsetThroughTheLevelsOwnS
   EXPECT_LT((stitch.at(21) - single.at(21)).cwiseAbs().maxCoeff(), 0.5 * apart);
   EXPECT_LT((stitch.at(28) - later.at(28)).cwiseAbs().maxCoeff(), 1e-4);
   for (const auto& [t, x] : stitch) EXPECT_TRUE(test::intersection_free(as_rows(x), h.levels[1].rest.F)) << t;
+  // Resumed from its frames 23 and 24 (a farm stitch task whose worker was lost), the stitch keeps its
+  // seam's ramp (stitch_seam) and repeats the uninterrupted frames bit for bit.
+  LevelTaskInputs resumed = in;
+  resumed.own_before = stitch.at(23);
+  resumed.own_start = stitch.at(24);
+  resumed.stitch_seam = 20;
+  Frames rest;
+  run(scene, h, {1, 24, 28}, &preview, rest, resumed);
+  ASSERT_EQ(rest.size(), 4u);
+  for (const auto& [t, x] : rest) EXPECT_EQ(x, stitch.at(t)) << t;
+  resumed.stitch_seam = 25;  // a seam after the start
+  Frames after;
+  EXPECT_THROW(run(scene, h, {1, 24, 28}, &preview, after, resumed), std::invalid_argument);
   LevelTaskInputs bad;
   bad.stitch_target = in.stitch_target;
   bad.stitch_frames = 8;

@@ -101,6 +101,40 @@ void expect_same(const AssignTask& a, const AssignTask& b) {
   if (a.own_kappa) {
     EXPECT_TRUE(same_bits({*a.own_kappa}, {*b.own_kappa}));
   }
+  ASSERT_EQ(a.guides.size(), b.guides.size());
+  for (std::size_t g = 0; g < a.guides.size(); ++g) EXPECT_TRUE(same_bits(a.guides[g], b.guides[g])) << g;
+}
+
+// A stitch task (first 10, last 13): guide frames 11, 12, 13.
+AssignTask stitch_assign() {
+  AssignTask m = full_assign();
+  m.first = 10;
+  m.last = 13;
+  m.start = 10;
+  for (int g = 0; g < 3; ++g) m.guides.push_back(tricky_positions(4, 0.5 + g));
+  return m;
+}
+
+TEST(ProtocolCommands, AssignTaskOfAStitchCarriesItsGuideFramesBitForBitAfterTheOwnFrames) {
+  const AssignTask m = stitch_assign();
+  const Parts parts = encode(m);
+  ASSERT_EQ(parts.size(), 7u);  // header, blob, own_before, own_start, three guides
+  EXPECT_EQ(header(parts)["guides"], 3);
+  expect_same(round_trip(m), m);
+}
+
+TEST(ProtocolCommands, AssignTaskGuidesAreRefusedWithoutOwnFramesOrOnePerFrame) {
+  AssignTask no_own = stitch_assign();
+  no_own.own_before.reset();
+  no_own.own_start.reset();
+  EXPECT_THROW(encode(no_own), ProtocolError);
+  Parts parts = encode(stitch_assign());
+  Json h = header(parts);
+  h["guides"] = 2;  // three data parts follow, and the task has three frames
+  EXPECT_TRUE(has(error_of(with_header(parts, h)), "assign: field 'guides': 2 guide frames need own frames"));
+  h["guides"] = 3;
+  h.erase("own_vertices");
+  EXPECT_TRUE(has(error_of(with_header(parts, h)), "assign: field 'guides'"));
 }
 
 TEST(ProtocolCommands, WelcomeRoundTrips) {

@@ -181,6 +181,7 @@ TEST(ProtocolReplies, JsonTextIsPrettyWithStructFieldNamesInOrderAndStateNames) 
       "priority": 0,
       "frames": 40,
       "subsets": 1,
+      "stitch": 0,
       "preview_only": false,
       "elapsed_seconds": 2.5,
       "eta_seconds": -1.0,
@@ -204,7 +205,8 @@ TEST(ProtocolReplies, JsonTextIsPrettyWithStructFieldNamesInOrderAndStateNames) 
           "worker": "w1",
           "attempts": 1,
           "reason": "",
-          "horizontal": false
+          "horizontal": false,
+          "stitch": false
         }
       ]
     }
@@ -246,9 +248,9 @@ TEST(ProtocolReplies, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(encode(FetchReply{1, "abc"}), "", ""), 2);
   const Parts status = encode(sample_status());
   EXPECT_EQ(check_every_field_required(status, "", ""), 1);
-  EXPECT_EQ(check_every_field_required(status, "/jobs/1", "jobs[1]."), 12);
+  EXPECT_EQ(check_every_field_required(status, "/jobs/1", "jobs[1]."), 13);
   EXPECT_EQ(check_every_field_required(status, "/jobs/0/levels/1", "jobs[0].levels[1]."), 4);
-  EXPECT_EQ(check_every_field_required(status, "/jobs/0/tasks/2", "jobs[0].tasks[2]."), 11);
+  EXPECT_EQ(check_every_field_required(status, "/jobs/0/tasks/2", "jobs[0].tasks[2]."), 12);
   const Parts workers = encode(sample_workers());
   EXPECT_EQ(check_every_field_required(workers, "", ""), 3);
   EXPECT_EQ(check_every_field_required(workers, "/workers/1", "workers[1]."), 10);
@@ -263,9 +265,9 @@ TEST(ProtocolReplies, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(encode(FetchReply{1, "abc"}), "", ""), 2);
   const Parts status = encode(sample_status());
   EXPECT_EQ(check_every_field_typed(status, "", ""), 1);
-  EXPECT_EQ(check_every_field_typed(status, "/jobs/0", "jobs[0]."), 12);
+  EXPECT_EQ(check_every_field_typed(status, "/jobs/0", "jobs[0]."), 13);
   EXPECT_EQ(check_every_field_typed(status, "/jobs/0/levels/0", "jobs[0].levels[0]."), 4);
-  EXPECT_EQ(check_every_field_typed(status, "/jobs/0/tasks/1", "jobs[0].tasks[1]."), 11);
+  EXPECT_EQ(check_every_field_typed(status, "/jobs/0/tasks/1", "jobs[0].tasks[1]."), 12);
   const Parts workers = encode(sample_workers());
   EXPECT_EQ(check_every_field_typed(workers, "", ""), 3);
   EXPECT_EQ(check_every_field_typed(workers, "/workers/0", "workers[0]."), 10);

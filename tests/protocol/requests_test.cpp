@@ -30,6 +30,7 @@ SubmitJob sample_submit() {
   m.frames = 120;
   m.preview_chunk = 10;
   m.hessian = "coarse";
+  m.stitch = 12;
   return m;
 }
 
@@ -50,6 +51,7 @@ TEST(ProtocolRequests, SubmitJobRoundTripsEveryField) {
   EXPECT_EQ(b.frames, m.frames);
   EXPECT_EQ(b.preview_chunk, m.preview_chunk);
   EXPECT_EQ(b.hessian, m.hessian);
+  EXPECT_EQ(b.stitch, 12);
   const SubmitJob d = round_trip(SubmitJob{});
   EXPECT_EQ(d.hessian, "auto");
   EXPECT_TRUE(d.scene.files.empty());
@@ -106,8 +108,8 @@ TEST(ProtocolRequests, MessagesOfOtherFamiliesAreRefused) {
 }
 
 TEST(ProtocolRequests, EveryRequiredFieldIsCheckedByName) {
-  EXPECT_EQ(check_every_field_required(encode(sample_submit())), 8);
-  EXPECT_EQ(check_every_field_required(encode(RefineJob{1, 2})), 2);
+  EXPECT_EQ(check_every_field_required(encode(sample_submit())), 9);
+  EXPECT_EQ(check_every_field_required(encode(RefineJob{1, 2, 16})), 3);
   EXPECT_EQ(check_every_field_required(encode(StatusRequest{1})), 1);
   EXPECT_EQ(check_every_field_required(encode(FetchRequest{1})), 1);
   EXPECT_EQ(check_every_field_required(encode(CancelJob{1})), 1);
@@ -132,8 +134,8 @@ TEST(ProtocolRequests, EveryRequiredFieldIsCheckedByName) {
 }
 
 TEST(ProtocolRequests, EveryFieldOfTheWrongTypeIsRefusedByName) {
-  EXPECT_EQ(check_every_field_typed(encode(sample_submit())), 8);
-  EXPECT_EQ(check_every_field_typed(encode(RefineJob{1, 2})), 2);
+  EXPECT_EQ(check_every_field_typed(encode(sample_submit())), 9);
+  EXPECT_EQ(check_every_field_typed(encode(RefineJob{1, 2, 16})), 3);
   EXPECT_EQ(check_every_field_typed(encode(StatusRequest{1})), 1);
   EXPECT_EQ(check_every_field_typed(encode(FetchRequest{1})), 1);
   EXPECT_EQ(check_every_field_typed(encode(CancelJob{1})), 1);

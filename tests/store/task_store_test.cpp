@@ -851,9 +851,9 @@ TEST_F(TaskStoreTest, AMovedSeamShrinksTheSubsetAndAddsABridgeThatContinuesHoriz
   ASSERT_EQ(c.task.id, t[2].id);
   EXPECT_EQ(s.refused_starts(t[2].id), 0);
   const std::vector<FrameKey> needs = {{0, 4}, {0, 5}};  // farm::subset_needs(1, 5, 8)
-  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 8, needs, "m"); }),
+  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 8, needs, std::nullopt, "m"); }),
             path_ + ": move_seam: task " + std::to_string(t[2].id) + " (3, 8]: the new seam 8 is not inside it");
-  const int64_t bridge = s.move_seam(t[2].id, c.attempt, 5, needs, "no valid perturbation");
+  const int64_t bridge = s.move_seam(t[2].id, c.attempt, 5, needs, std::nullopt, "no valid perturbation");
   EXPECT_EQ(s.refused_starts(t[2].id), 1);
   const TaskRow moved = s.task(t[2].id);
   EXPECT_EQ(moved.first, 5);
@@ -876,9 +876,122 @@ TEST_F(TaskStoreTest, AMovedSeamShrinksTheSubsetAndAddsABridgeThatContinuesHoriz
   s.record_frame(job, {1, 2}, FrameData{});
   s.record_frame(job, {1, 3}, FrameData{});
   EXPECT_EQ(s.task(bridge).state, TaskState::ready);
-  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 6, needs, "m"); }),
+  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 6, needs, std::nullopt, "m"); }),
             path_ + ": move_seam: attempt " + std::to_string(c.attempt) + " is not task " + std::to_string(t[2].id) +
                 "'s running attempt");
+}
+
+// A seam's stitch (farm/task_graph.h): subset (5, 10] of level 1 with guides 2, and its stitch task
+// (5, 7] needing level 1's frames 4 and 5 and the guide frames 6 and 7.
+NewTask stitch_of(int level, int seam, int last) {
+  NewTask t = level_task(level, seam, last, {{level - 1, seam - 1}, {level - 1, seam}, {level, seam - 1}, {level, seam}});
+  t.stitch = true;
+  for (int f = seam + 1; f <= last; ++f) t.guide_needs.push_back({level, f});
+  return t;
+}
+std::vector<NewTask> stitched_job_tasks() {
+  NewTask later = level_task(1, 5, 10, {{0, 4}, {0, 5}});
+  later.guides = 2;
+  return {level_task(0, 0, 10), level_task(1, 0, 5, {{0, 0}}), later, stitch_of(1, 5, 7)};
+}
+
+// Level 0's frames 0..5 stored and the first two tasks claimed: the later subset's claim (its
+// vertical start).
+Claim claim_later_subset(TaskStore& s, int64_t job) {
+  for (int f = 0; f <= 5; ++f) s.record_frame(job, {0, f}, FrameData{});
+  s.claim_next(s.add_worker("w0", "host", "1.0", 1));
+  s.claim_next(s.add_worker("w1", "host", "1.0", 1));
+  return *s.claim_next(s.add_worker("w", "host", "1.0", 1));
+}
+
+TEST_F(TaskStoreTest, AStitchTaskWaitsForItsGuideFramesWhichAreNotTheJobsFrames) {
+  TaskStore s(path_);
+  const int64_t job = s.add_job(make_job(10, 2), stitched_job_tasks());
+  const std::vector<TaskRow> t = s.tasks(job);
+  ASSERT_EQ(t.size(), 4u);
+  EXPECT_EQ(t[2].guides, 2);
+  EXPECT_FALSE(t[2].stitch);
+  EXPECT_TRUE(t[3].stitch);
+  EXPECT_EQ(t[3].first, 5);
+  EXPECT_EQ(t[3].last, 7);
+  for (int f = 0; f <= 7; ++f) s.record_frame(job, {0, f}, FrameData{});
+  s.record_frame(job, {1, 4}, FrameData{});
+  s.record_frame(job, {1, 5}, FrameData{});
+  EXPECT_EQ(s.task(t[3].id).state, TaskState::waiting);
+  s.record_frame(job, {1, 6}, FrameData{});  // a frame of the job is not the guide frame it waits for
+  s.record_frame(job, {1, 7}, FrameData{});
+  EXPECT_EQ(s.task(t[3].id).state, TaskState::waiting);
+  const std::vector<double> six = {0.1, -0.0, std::numeric_limits<double>::denorm_min()};
+  s.record_guide_frame(job, {1, 6}, six);
+  EXPECT_EQ(s.task(t[3].id).state, TaskState::waiting);
+  s.record_guide_frame(job, {1, 7}, {7.0, 7.0, 7.0});
+  EXPECT_EQ(s.task(t[3].id).state, TaskState::ready);
+  const std::optional<std::vector<double>> back = s.guide_frame(job, {1, 6});
+  ASSERT_TRUE(back.has_value());
+  ASSERT_EQ(back->size(), six.size());
+  EXPECT_EQ(std::memcmp(back->data(), six.data(), sizeof(double) * six.size()), 0);
+  EXPECT_FALSE(s.guide_frame(job, {1, 8}).has_value());
+  EXPECT_EQ(s.stored_guide_frames(job, 1, 0, 10), (std::vector<int>{6, 7}));
+  EXPECT_EQ(s.frames_stored(job)[1], 4);  // guide frames are not counted among the job's
+  EXPECT_EQ(store_error_of([&] { s.record_guide_frame(job, {1, 11}, {}); }),
+            path_ + ": record_guide_frame: job " + std::to_string(job) + ": frame 11 outside 0..10");
+}
+
+TEST_F(TaskStoreTest, ASubsetThatContinuesHorizontallyHasNoSeamSoItsStitchTaskIsRemoved) {
+  TaskStore s(path_);
+  const int64_t job = s.add_job(make_job(10, 2), stitched_job_tasks());
+  const std::vector<TaskRow> t = s.tasks(job);
+  const Claim c = claim_later_subset(s, job);
+  ASSERT_EQ(c.task.id, t[2].id);
+  s.continue_horizontally(t[2].id, c.attempt, "no valid perturbation");
+  const std::vector<TaskRow> after = s.tasks(job);
+  ASSERT_EQ(after.size(), 3u);
+  for (const TaskRow& r : after) EXPECT_FALSE(r.stitch);
+  EXPECT_EQ(s.task(t[2].id).guides, 0);
+  EXPECT_EQ(raw_value(path_, "SELECT COUNT(*) FROM task_frames WHERE task_id = ?1", t[3].id), "0");
+}
+
+TEST_F(TaskStoreTest, AMovedSeamTakesItsStitchTaskToTheNewSeam) {
+  TaskStore s(path_);
+  const int64_t job = s.add_job(make_job(10, 2), stitched_job_tasks());
+  const std::vector<TaskRow> t = s.tasks(job);
+  const Claim c = claim_later_subset(s, job);
+  ASSERT_EQ(c.task.id, t[2].id);
+  NewTask wrong = stitch_of(1, 6, 8);
+  EXPECT_EQ(store_error_of([&] { s.move_seam(t[2].id, c.attempt, 7, {{0, 6}, {0, 7}}, wrong, "m"); }),
+            path_ + ": move_seam: task " + std::to_string(t[2].id) + ": the stitch given is not one for level 1 at the new seam 7");
+  s.move_seam(t[2].id, c.attempt, 7, {{0, 6}, {0, 7}}, stitch_of(1, 7, 9), "m");
+  std::vector<TaskRow> stitches;
+  for (const TaskRow& r : s.tasks(job))
+    if (r.stitch) stitches.push_back(r);
+  ASSERT_EQ(stitches.size(), 1u);
+  EXPECT_EQ(stitches[0].first, 7);
+  EXPECT_EQ(stitches[0].last, 9);
+  EXPECT_EQ(s.task(t[2].id).first, 7);
+  EXPECT_EQ(s.task(t[2].id).guides, 2);
+  EXPECT_EQ(s.tasks(job).size(), 5u);  // the subset's bridge (5, 7] and the new stitch, the old one gone
+}
+
+TEST_F(TaskStoreTest, AVersionTwoStoreIsUpgradedInPlaceAndKeepsItsJobs) {
+  int64_t job = 0;
+  {
+    TaskStore s(path_);
+    job = s.add_job(make_job(4, 2), {level_task(0, 0, 4)});
+  }
+  // What a version-2 store is: no stitch columns, no guide frames.
+  for (const char* sql : {"ALTER TABLE jobs DROP COLUMN stitch", "ALTER TABLE tasks DROP COLUMN stitch",
+                          "ALTER TABLE tasks DROP COLUMN guides", "ALTER TABLE task_frames DROP COLUMN guide",
+                          "DROP TABLE guide_frames", "PRAGMA user_version = 2"})
+    raw_value(path_, sql);
+  ASSERT_EQ(raw_value(path_, "PRAGMA user_version"), "2");
+  TaskStore s(path_);
+  EXPECT_EQ(raw_value(path_, "PRAGMA user_version"), std::to_string(kTaskStoreSchemaVersion));
+  EXPECT_EQ(s.job(job).spec.frames, 4);
+  EXPECT_EQ(s.job(job).spec.stitch, 0);
+  EXPECT_EQ(s.tasks(job).size(), 1u);
+  NewJob stitched = make_job(10, 2);
+  stitched.stitch = 16;
+  EXPECT_EQ(s.job(s.add_job(stitched, stitched_job_tasks())).spec.stitch, 16);
 }
 
 TEST_F(TaskStoreTest, FailAttemptRefusesAnAttemptThatIsNotTheTasksRunningOne) {
