@@ -59,6 +59,11 @@ void print_job(const JobStatus& j) {
   header += "  elapsed " + format_duration(j.elapsed_seconds);
   if (!job_finished(j.state)) header += "  ETA " + format_duration(j.eta_seconds);
   std::printf("%s\n", header.c_str());
+  if (!j.seams.empty()) {
+    const std::string stitch = j.stitch >= 2 ? "each stitched over " + std::to_string(j.stitch) + " frames" : "not stitched";
+    std::printf("  seams (K = %d, %s):\n", j.subsets, stitch.c_str());
+    for (const std::string& s : j.seams) std::printf("    %s\n", s.c_str());
+  }
   for (const protocol::LevelProgress& l : j.levels) {
     const std::string vertices = l.vertices > 0 ? std::to_string(l.vertices) + " vertices" : "hierarchy not built yet";
     std::printf("  level %d  %s  %d/%d frames  %s\n", l.level, bar(l.frames_done, l.frames_total).c_str(),

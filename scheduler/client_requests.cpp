@@ -129,6 +129,7 @@ protocol::JobStatus Scheduler::job_status(const JobRow& job) {
   js.frames = job.spec.frames;
   js.subsets = job.spec.subsets;
   js.stitch = job.spec.stitch;
+  js.seams = job.seams;
   js.preview_only = job.spec.preview_only;
   js.elapsed_seconds = (job.finished > 0 ? job.finished : unix_now()) - job.submitted;
   const std::vector<int> stored = store_->frames_stored(job.id);

@@ -41,11 +41,14 @@ std::vector<int> Scheduler::place_job_seams(const JobRow& job) {
         return std::numeric_limits<double>::quiet_NaN();
       });
   std::vector<int> seams;
+  std::vector<std::string> reasons;
   std::string why;
   for (const farm::PlacedSeam& s : farm::place_seams(p, job.spec.subsets)) {
     seams.push_back(s.frame);
+    reasons.push_back(s.reason);
     why += (why.empty() ? "" : "; ") + s.reason;
   }
+  store_->set_seams(job.id, reasons);
   event("seams_placed", job.id, 0, 0, why);
   return seams;
 }

@@ -41,7 +41,7 @@ namespace pd::protocol {
 // 5: the prolonged Hessian name "auto" (SubmitJob's default; AssignTask.hessian may carry it).
 // 6: Hello.blas_kernel.
 // 7: seam stitches: AssignTask.guides, SubmitJob.stitch, RefineJob.stitch, TaskStatus.stitch,
-//    JobStatus.stitch.
+//    JobStatus.stitch; JobStatus.seams.
 constexpr int kProtocolVersion = 7;
 
 // Upper bound on a whole message (all parts), bytes; larger messages are refused when decoded (and
@@ -381,6 +381,7 @@ struct JobStatus {
   int frames = 0;         // N
   int subsets = 1;
   int stitch = 0;         // W (SubmitJob::stitch)
+  std::vector<std::string> seams;  // where each seam was placed from the preview, and why (K >= 2)
   bool preview_only = false;
   double elapsed_seconds = 0.0;  // since submission (until the end for a finished job)
   double eta_seconds = -1.0;     // estimated time to finish, -1 when unknown

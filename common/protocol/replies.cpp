@@ -50,6 +50,7 @@ Json job_json(const JobStatus& s) {
   j["frames"] = s.frames;
   j["subsets"] = s.subsets;
   j["stitch"] = s.stitch;
+  j["seams"] = s.seams;
   j["preview_only"] = s.preview_only;
   j["elapsed_seconds"] = wire::number(s.elapsed_seconds);
   j["eta_seconds"] = wire::number(s.eta_seconds);
@@ -209,6 +210,7 @@ JobStatus read_job(const Fields& f) {
   s.frames = f.count("frames");
   s.subsets = f.count("subsets");
   s.stitch = f.count("stitch");
+  s.seams = f.texts("seams");
   s.preview_only = f.boolean("preview_only");
   s.elapsed_seconds = f.number("elapsed_seconds");
   s.eta_seconds = f.number("eta_seconds");

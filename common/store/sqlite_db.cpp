@@ -262,7 +262,8 @@ CREATE TABLE jobs(
   hierarchy_hash TEXT NOT NULL DEFAULT '',
   submitted REAL NOT NULL,
   finished REAL NOT NULL DEFAULT 0,   -- 0 while the job has not ended
-  stitch INTEGER NOT NULL DEFAULT 0); -- W, frames per seam stitch; 0: none
+  stitch INTEGER NOT NULL DEFAULT 0,  -- W, frames per seam stitch; 0: none
+  seams TEXT NOT NULL DEFAULT '[]');  -- JSON array: where each seam was placed and why
 CREATE TABLE workers(
   id INTEGER PRIMARY KEY,
   name TEXT NOT NULL,
@@ -340,6 +341,7 @@ CREATE INDEX events_by_job ON events(job_id);
 
 const char* const kUpgrade2To3 = R"sql(
 ALTER TABLE jobs ADD COLUMN stitch INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE jobs ADD COLUMN seams TEXT NOT NULL DEFAULT '[]';
 ALTER TABLE tasks ADD COLUMN stitch INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE tasks ADD COLUMN guides INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE task_frames ADD COLUMN guide INTEGER NOT NULL DEFAULT 0;
@@ -353,7 +355,7 @@ CREATE TABLE guide_frames(
 
 const char* const kJobColumns =
     "id, name, scene_name, scene_text, scene_files, frames, levels, subsets, priority, preview_only, "
-    "preview_chunk, hessian, state, reason, hierarchy_hash, submitted, finished, stitch";
+    "preview_chunk, hessian, state, reason, hierarchy_hash, submitted, finished, stitch, seams";
 // The current attempt of a task: its open one (a running task has at most one).
 const char* const kTaskColumns =
     "t.id, t.job_id, t.kind, t.level, t.first, t.last, t.state, t.reason, t.worker_id, t.attempts, "
@@ -418,6 +420,11 @@ JobRow job_from(const Db& db, const Statement& st) {
   r.submitted = st.column_double(15);
   r.finished = st.column_double(16);
   r.spec.stitch = st.column_int(17);
+  try {
+    r.seams = nlohmann::json::parse(st.column_text(18)).get<std::vector<std::string>>();
+  } catch (const nlohmann::json::exception& e) {
+    db.fail_with(what + ": seams: " + e.what());
+  }
   return r;
 }
 

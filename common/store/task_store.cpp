@@ -471,6 +471,17 @@ void TaskStore::set_preview_only(int64_t job, bool preview_only) {
              preview_only ? 1 : 0);
 }
 
+void TaskStore::set_seams(int64_t job, const std::vector<std::string>& reasons) {
+  Db& db = impl_->db;
+  std::string text;
+  try {
+    text = nlohmann::json(reasons).dump();
+  } catch (const nlohmann::json::exception& e) {
+    db.fail_with(std::string("set_seams: ") + e.what());
+  }
+  update_row(db, "set_seams", "job", "UPDATE jobs SET seams = ?2 WHERE id = ?1", job, text);
+}
+
 void TaskStore::set_subsets(int64_t job, int subsets, int stitch) {
   update_row(impl_->db, "set_subsets", "job", "UPDATE jobs SET subsets = ?2, stitch = ?3 WHERE id = ?1", job, subsets,
              stitch);

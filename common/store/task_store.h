@@ -5,7 +5,7 @@
 // Tables (schema version kTaskStoreSchemaVersion in PRAGMA user_version; another version is refused):
 //   jobs(id, name, scene_name, scene_text, scene_files (JSON), frames, levels, subsets, priority,
 //        preview_only, preview_chunk, hessian, state, reason, hierarchy_hash, submitted, finished,
-//        stitch)
+//        stitch, seams (JSON))
 //   tasks(id, job_id, kind, level, first, last, state, reason, worker_id, attempts, stitch, guides)
 //   task_after(task_id, after_task_id)      the task waits until after_task_id is done (hierarchy)
 //   task_frames(task_id, level, frame, guide)  frames of the job that must be stored before dispatch
@@ -44,7 +44,7 @@
 
 namespace pd {
 
-// 3: jobs.stitch, tasks.stitch and tasks.guides, task_frames.guide, guide_frames. A version-2 store is
+// 3: jobs.stitch and jobs.seams, tasks.stitch and tasks.guides, task_frames.guide, guide_frames. A version-2 store is
 // upgraded in place when opened (its jobs have no stitches).
 constexpr int kTaskStoreSchemaVersion = 3;
 
@@ -116,6 +116,7 @@ struct JobRow {
   std::string reason;
   std::string hierarchy_hash;  // empty until the hierarchy task is done
   double submitted = 0.0, finished = 0.0;  // finished = 0 while not ended
+  std::vector<std::string> seams;  // where each seam of its refinement levels was placed, and why (set_seams)
 };
 
 struct TaskRow {
@@ -178,6 +179,9 @@ class TaskStore {
   std::string hierarchy_blob(int64_t job) const;  // StoreError when the job has none
   // Sets preview_only = false (pd refine).
   void set_preview_only(int64_t job, bool preview_only);
+  // Keeps where the job's seams were placed and why (farm/seam_placement.h PlacedSeam::reason), for
+  // pd status.
+  void set_seams(int64_t job, const std::vector<std::string>& reasons);
   // Sets the job's subsets K and stitch width W (pd refine --subsets, --stitch).
   void set_subsets(int64_t job, int subsets, int stitch);
 

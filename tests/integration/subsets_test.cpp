@@ -230,8 +230,8 @@ TEST_F(FarmTest, OneWorkerAndTwoWorkersGiveIdenticalFramesWithTwoSubsets) {
 
 // pd refine --subsets 3 of a preview-only job: while its preview runs the refinement is pending (no
 // task above level 0, the job still running); once the preview is stored the levels are added, cut
-// at seams placed from it (logged with the reasons, each within a quarter subset of its even split),
-// and the job ends done with every level complete and intersection-free.
+// at seams placed from it (logged with the reasons, each within a quarter subset of its even split;
+// pd status shows them), each seam with its stitch task, and the job ends done with every level complete and intersection-free.
 TEST_F(FarmTest, RefiningWithSubsetsWaitsForThePreviewAndCutsTheLevelsAtSeamsPlacedFromIt) {
   constexpr int kFrames = 60;
   Farm& farm = start_farm(1, "farm_refine_seams");
@@ -260,6 +260,12 @@ TEST_F(FarmTest, RefiningWithSubsetsWaitsForThePreviewAndCutsTheLevelsAtSeamsPla
       EXPECT_EQ(stitches[static_cast<std::size_t>(k - 1)].at("last"), firsts[k] + 15);
     }
   }
+  // pd status shows the seams and why each was placed there (the log's reasons), and the stitch.
+  ASSERT_EQ(status.at("seams").size(), 2u) << status.dump();
+  for (const json& reason : status.at("seams")) EXPECT_NE(why.find(reason.get<std::string>()), std::string::npos) << why;
+  const test::RunResult text = farm.pd({"status", std::to_string(job)});
+  ASSERT_EQ(text.exit_code, 0) << text.describe();
+  EXPECT_NE(text.out.find("  seams (K = 3, each stitched over 16 frames):\n    frame "), std::string::npos) << text.out;
   // The refinement was added when the preview's last frame was stored, not before.
   double last_preview = 0.0;
   for (const json& e : test::log_events(farm.scheduler_log(), "frame_stored"))

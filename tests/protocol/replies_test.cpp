@@ -35,13 +35,16 @@ StatusReply sample_status() {
   a.priority = 5;
   a.frames = 40;
   a.subsets = 2;
+  a.stitch = 16;
+  a.seams = {"frame 20, the even split (motion 0.8x the median, contact steady)"};
   a.elapsed_seconds = 12.5;
   a.eta_seconds = -1.0;
   a.levels = {{0, 41, 41, 128}, {1, 12, 41, 0}};
   a.tasks = {{2, TaskKind::hierarchy, 0, 0, 0, TaskState::done, 0, "w2", 1, ""},
              {3, TaskKind::level, 1, 0, 40, TaskState::running, 5, "w1", 1, ""},
              {4, TaskKind::level, 2, 20, 40, TaskState::blocked, 0, "", 0, "task 3 failed"},
-             {5, TaskKind::level, 1, 20, 40, TaskState::waiting, 0, "", 1, "continues horizontally: ...", true}};
+             {5, TaskKind::level, 1, 20, 40, TaskState::waiting, 0, "", 1, "continues horizontally: ...", true},
+             {6, TaskKind::level, 1, 20, 35, TaskState::waiting, 0, "", 0, "", false, true}};
   JobStatus b;
   b.id = 2;
   b.name = "flag";
@@ -69,6 +72,8 @@ void expect_same(const JobStatus& a, const JobStatus& b) {
   EXPECT_EQ(a.priority, b.priority);
   EXPECT_EQ(a.frames, b.frames);
   EXPECT_EQ(a.subsets, b.subsets);
+  EXPECT_EQ(a.stitch, b.stitch);
+  EXPECT_EQ(a.seams, b.seams);
   EXPECT_EQ(a.preview_only, b.preview_only);
   EXPECT_TRUE(same_bits(a.elapsed_seconds, b.elapsed_seconds));
   EXPECT_TRUE(same_bits(a.eta_seconds, b.eta_seconds));
@@ -93,6 +98,7 @@ void expect_same(const JobStatus& a, const JobStatus& b) {
     EXPECT_EQ(s.attempts, t.attempts);
     EXPECT_EQ(s.reason, t.reason);
     EXPECT_EQ(s.horizontal, t.horizontal);
+    EXPECT_EQ(s.stitch, t.stitch);
   }
 }
 
@@ -182,6 +188,7 @@ TEST(ProtocolReplies, JsonTextIsPrettyWithStructFieldNamesInOrderAndStateNames) 
       "frames": 40,
       "subsets": 1,
       "stitch": 0,
+      "seams": [],
       "preview_only": false,
       "elapsed_seconds": 2.5,
       "eta_seconds": -1.0,
@@ -248,7 +255,7 @@ TEST(ProtocolReplies, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(encode(FetchReply{1, "abc"}), "", ""), 2);
   const Parts status = encode(sample_status());
   EXPECT_EQ(check_every_field_required(status, "", ""), 1);
-  EXPECT_EQ(check_every_field_required(status, "/jobs/1", "jobs[1]."), 13);
+  EXPECT_EQ(check_every_field_required(status, "/jobs/1", "jobs[1]."), 14);
   EXPECT_EQ(check_every_field_required(status, "/jobs/0/levels/1", "jobs[0].levels[1]."), 4);
   EXPECT_EQ(check_every_field_required(status, "/jobs/0/tasks/2", "jobs[0].tasks[2]."), 12);
   const Parts workers = encode(sample_workers());
@@ -265,7 +272,7 @@ TEST(ProtocolReplies, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(encode(FetchReply{1, "abc"}), "", ""), 2);
   const Parts status = encode(sample_status());
   EXPECT_EQ(check_every_field_typed(status, "", ""), 1);
-  EXPECT_EQ(check_every_field_typed(status, "/jobs/0", "jobs[0]."), 13);
+  EXPECT_EQ(check_every_field_typed(status, "/jobs/0", "jobs[0]."), 14);
   EXPECT_EQ(check_every_field_typed(status, "/jobs/0/levels/0", "jobs[0].levels[0]."), 4);
   EXPECT_EQ(check_every_field_typed(status, "/jobs/0/tasks/1", "jobs[0].tasks[1]."), 12);
   const Parts workers = encode(sample_workers());

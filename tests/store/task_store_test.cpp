@@ -979,7 +979,8 @@ TEST_F(TaskStoreTest, AVersionTwoStoreIsUpgradedInPlaceAndKeepsItsJobs) {
     job = s.add_job(make_job(4, 2), {level_task(0, 0, 4)});
   }
   // What a version-2 store is: no stitch columns, no guide frames.
-  for (const char* sql : {"ALTER TABLE jobs DROP COLUMN stitch", "ALTER TABLE tasks DROP COLUMN stitch",
+  for (const char* sql : {"ALTER TABLE jobs DROP COLUMN stitch", "ALTER TABLE jobs DROP COLUMN seams",
+                          "ALTER TABLE tasks DROP COLUMN stitch",
                           "ALTER TABLE tasks DROP COLUMN guides", "ALTER TABLE task_frames DROP COLUMN guide",
                           "DROP TABLE guide_frames", "PRAGMA user_version = 2"})
     raw_value(path_, sql);
@@ -988,7 +989,10 @@ TEST_F(TaskStoreTest, AVersionTwoStoreIsUpgradedInPlaceAndKeepsItsJobs) {
   EXPECT_EQ(raw_value(path_, "PRAGMA user_version"), std::to_string(kTaskStoreSchemaVersion));
   EXPECT_EQ(s.job(job).spec.frames, 4);
   EXPECT_EQ(s.job(job).spec.stitch, 0);
+  EXPECT_TRUE(s.job(job).seams.empty());
   EXPECT_EQ(s.tasks(job).size(), 1u);
+  s.set_seams(job, {"frame 2, the even split", "caf\xc3\xa9"});
+  EXPECT_EQ(s.job(job).seams, (std::vector<std::string>{"frame 2, the even split", "caf\xc3\xa9"}));
   NewJob stitched = make_job(10, 2);
   stitched.stitch = 16;
   EXPECT_EQ(s.job(s.add_job(stitched, stitched_job_tasks())).spec.stitch, 16);
