@@ -4,12 +4,16 @@
 #   - the wall time, per level when its first task was assigned and its last frame stored, each
 #     vertical start's cost in seconds and in the level's median steps, and each worker's solve /
 #     held / idle time (bench/farm_timeline.py, from the scheduler's log and the job file);
-#   - the seams the scheduler placed (its seams_placed event) and their pops against the K = 1 run
-#     (pd compare K1.h5 KK.h5 --seams ...: visible when > 0.5 and > 1.5x K = 1's);
+#   - the seams the scheduler placed (its seams_placed event) and the pops of the seams and of the
+#     stitches' junctions (the last stitched frame, where the later subset takes over; read from the
+#     farm's task store) against the K = 1 run (pd compare K1.h5 KK.h5 --seams ...: visible when
+#     > 0.5 and > 1.5x K = 1's);
 #   - pd plan's prediction from the K = 1 run's step costs, for the same W and K (to check the model)
 #     and for 8, 16, 64 and 128 workers.
 #
-#   bench/farm_shots.sh [--shots a,b] [--frames N] [--workers W] [--subsets "1 2"] [--work DIR] [--pd PATH]
+#   bench/farm_shots.sh [--shots a,b] [--frames N] [--workers W] [--subsets "1 2"] [--stitch S]
+#                       [--work DIR] [--pd PATH]
+# --stitch S: frames each seam is stitched over (pd run --stitch; default pd's, 16; 0: none).
 #
 # Shots (bench/scenes/): flag-large-10s (6 161 vertices, 1 000 frames), drape-25k (27 843 vertices,
 # 150 frames), cube-trampoline-large-3s (6 617 vertices, 300 frames). At full length they take hours
@@ -20,7 +24,7 @@ set -u -o pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/.." && pwd)
 python=/usr/bin/python3
-shots="flag-large-10s,drape-25k,cube-trampoline-large-3s" frames="" workers=2 subsets="1 2"
+shots="flag-large-10s,drape-25k,cube-trampoline-large-3s" frames="" workers=2 subsets="1 2" stitch=""
 work="" pd="${PD:-$repo/build/client/pd}"
 usage() { awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "${BASH_SOURCE[0]}" >&2; exit 2; }
 while (($#)); do
@@ -29,6 +33,7 @@ while (($#)); do
     --frames) frames=${2:?--frames needs a value}; shift 2 ;;
     --workers) workers=${2:?--workers needs a value}; shift 2 ;;
     --subsets) subsets=${2:?--subsets needs a value}; shift 2 ;;
+    --stitch) stitch=${2:?--stitch needs a value}; shift 2 ;;
     --work) work=${2:?--work needs a value}; shift 2 ;;
     --pd) pd=${2:?--pd needs a value}; shift 2 ;;
     -h|--help) usage ;;
@@ -37,6 +42,7 @@ while (($#)); do
 done
 [[ "$workers" =~ ^[1-9][0-9]*$ ]] || { echo "farm_shots.sh: --workers: expected a positive integer, got '$workers'" >&2; exit 2; }
 [[ -z "$frames" || "$frames" =~ ^[1-9][0-9]*$ ]] || { echo "farm_shots.sh: --frames: expected a positive integer, got '$frames'" >&2; exit 2; }
+[[ -z "$stitch" || "$stitch" =~ ^[0-9]+$ ]] || { echo "farm_shots.sh: --stitch: expected a non-negative integer, got '$stitch'" >&2; exit 2; }
 for k in $subsets; do
   [[ "$k" =~ ^[1-9][0-9]*$ ]] || { echo "farm_shots.sh: --subsets: expected positive integers, got '$k'" >&2; exit 2; }
 done
@@ -61,7 +67,7 @@ for shot in "${shot_list[@]}"; do
     dir="$work/$shot-K$k"
     rm -rf "$dir" "$dir.h5"
     start=$(date +%s.%N)
-    if ! "$pd" run "$scene" --workers "$workers" --subsets "$k" ${frames:+--frames "$frames"} --keep-farm "$dir" \
+    if ! "$pd" run "$scene" --workers "$workers" --subsets "$k" ${frames:+--frames "$frames"} ${stitch:+--stitch "$stitch"} --keep-farm "$dir" \
         --out "$dir.h5" > "$dir.out" 2>&1; then
       echo "K = $k: pd run failed (exit $?), see $dir.out"; status=1; continue
     fi
@@ -78,9 +84,18 @@ print("  workers (solve / held / idle s): " + "; ".join(f"{w['name']} {w['solve_
 EOF
     seams=$(grep '"event":"seams_placed"' "$dir/scheduler.log" | sed -e 's/.*"message":"//' -e 's/".*//' |
             grep -o 'frame [0-9]*' | awk '{ printf "%s%s", sep, $2; sep = "," }')
+    # Every frame where a later subset or a stitch's junction takes over, moved seams included.
+    starts=$("$python" - "$dir/farm.sqlite" <<'EOF'
+import sqlite3, sys
+db = sqlite3.connect(sys.argv[1])
+frames = {r[0] for r in db.execute("SELECT first FROM tasks WHERE kind = 'level' AND level >= 1 AND first > 0")}
+frames |= {r[0] for r in db.execute("SELECT last FROM tasks WHERE stitch = 1")}
+print(",".join(str(f) for f in sorted(frames)))
+EOF
+)
     if [ "$k" -ge 2 ] && [ -n "$seams" ] && [ -f "$work/$shot-K1.h5" ]; then
-      echo "  seams placed: $seams"
-      "$pd" compare "$work/$shot-K1.h5" "$dir.h5" --seams "$seams" --csv "$dir.compare.csv" --force 2>/dev/null |
+      echo "  seams placed: $seams; seams and junctions measured: $starts"
+      "$pd" compare "$work/$shot-K1.h5" "$dir.h5" --seams "$starts" --csv "$dir.compare.csv" --force 2>/dev/null |
         grep '^seam pop' | sed 's/^/  /' || status=1
     fi
   done
@@ -88,11 +103,11 @@ EOF
     full=$("$python" -c 'import json, sys; print(json.load(open(sys.argv[1]))["frames"])' "$scene")
     for k in $subsets; do
       echo "  pd plan, K = $k, the frames run (workers, makespan s, speed-up, preview done s, busy):"
-      "$pd" plan "$work/$shot-K1.h5" --subsets "$k" --workers "$workers" | awk '/^ +[0-9]+ +[0-9.]+ / { print "   " $0 }'
+      "$pd" plan "$work/$shot-K1.h5" --subsets "$k" ${stitch:+--stitch "$stitch"} --workers "$workers" | awk '/^ +[0-9]+ +[0-9.]+ / { print "   " $0 }'
     done
     for k in 1 8 16 64 128 256; do
       echo "  pd plan, the whole shot ($full frames), K = $k:"
-      "$pd" plan "$work/$shot-K1.h5" --frames "$full" --subsets "$k" --workers "$workers,8,16,64,128" |
+      "$pd" plan "$work/$shot-K1.h5" --frames "$full" --subsets "$k" ${stitch:+--stitch "$stitch"} --workers "$workers,8,16,64,128" |
         awk '/^ +[0-9]+ +[0-9.]+ / { print "   " $0 }'
     done
   fi

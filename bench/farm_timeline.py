@@ -14,7 +14,8 @@ frame's solve_seconds. Times are seconds from the job's `job_submitted` event.
 An attempt runs from its `task_assigned` event to the event that ends it (task_done, task_released,
 attempt_failed, task_continues_horizontally, task_preempted, worker_lost, or a later assignment to
 the same worker). Its solve time is the sum of solve_seconds of the frames it stored (frame_stored
-events of that task and worker in the interval); held = duration - solve.
+events of that task and worker in the interval, and guide_stored events, which carry their own solve
+time: a later subset's first frames when seams are stitched); held = duration - solve.
 """
 import argparse
 import json
@@ -23,8 +24,10 @@ import re
 import sys
 
 ENDS = {"task_done", "hierarchy_stored", "task_released", "attempt_failed", "task_continues_horizontally", "task_preempted"}
-ASSIGNED = re.compile(r"attempt (\d+): (hierarchy|level (\d+)) frames \((\d+), (\d+)\] to (.*?)(, continuing from frame (\d+))?$")
+ASSIGNED = re.compile(r"attempt (?P<attempt>\d+): (?P<kind>hierarchy|level (?P<level>\d+)(?P<stitch> stitch)?) "
+                      r"frames \((?P<first>\d+), (?P<last>\d+)\] to (?P<name>.*?)(?P<continuing>, continuing from frame (\d+))?$")
 FRAME = re.compile(r"level (\d+) frame (\d+)$")
+GUIDE = re.compile(r"level (\d+) guide frame (\d+), solve (\S+) s$")  # a later subset's first frames (seam stitches)
 
 
 def read_events(path):
@@ -92,10 +95,10 @@ def attempts_of(events, job, t0, solve):
             if not m:
                 continue
             close(worker, e["time"], "reassigned")
-            running[worker] = {"worker": worker, "name": m.group(6), "task": e["task"],
-                               "continuing": m.group(7) is not None,
-                               "level": -1 if m.group(2) == "hierarchy" else int(m.group(3)),
-                               "first": int(m.group(4)), "last": int(m.group(5)), "start": e["time"] - t0,
+            running[worker] = {"worker": worker, "name": m.group("name"), "task": e["task"],
+                               "continuing": m.group("continuing") is not None, "stitch": m.group("stitch") is not None,
+                               "level": -1 if m.group("kind") == "hierarchy" else int(m.group("level")),
+                               "first": int(m.group("first")), "last": int(m.group("last")), "start": e["time"] - t0,
                                "frames": [], "solve": 0.0}
         elif kind == "frame_stored" and worker in running and running[worker]["task"] == e.get("task"):
             m = FRAME.match(e.get("message", ""))
@@ -103,6 +106,11 @@ def attempts_of(events, job, t0, solve):
                 key = (int(m.group(1)), int(m.group(2)))
                 running[worker]["frames"].append((e["time"] - t0, key[1], solve.get(key, 0.0)))
                 running[worker]["solve"] += solve.get(key, 0.0)
+        elif kind == "guide_stored" and worker in running and running[worker]["task"] == e.get("task"):
+            m = GUIDE.match(e.get("message", ""))
+            if m:
+                running[worker]["frames"].append((e["time"] - t0, int(m.group(2)), float(m.group(3))))
+                running[worker]["solve"] += float(m.group(3))
         elif kind in ENDS and worker in running and running[worker]["task"] == e.get("task"):
             close(worker, e["time"], kind)
     for worker in list(running):
@@ -145,12 +153,12 @@ def levels_of(attempts):
 
 def vertical_starts(attempts, levels):
     """Each vertical start: a level >= 1 attempt from a frame > 0 that did not continue from stored
-    frames. Its cost is the time from assignment to its first stored frame less that frame's solve
+    frames (a seam's stitch task continues horizontally: not one). Its cost is the time from assignment to its first stored frame less that frame's solve
     (upsampling, set-up, and the wait for frames of the level below), also in the level's median steps."""
     median = {lv["level"]: lv["median_step_s"] for lv in levels}
     out = []
     for a in attempts:
-        if a["level"] < 1 or a["first"] == 0 or a["continuing"] or not a["frames"]:
+        if a["level"] < 1 or a["first"] == 0 or a["continuing"] or a["stitch"] or not a["frames"]:
             continue
         stored, frame, s = a["frames"][0]
         if frame != a["first"] + 1:

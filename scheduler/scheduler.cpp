@@ -250,7 +250,8 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
   s.progress = a.start;
   event("task_assigned", t.job, t.id, s.worker,
         "attempt " + std::to_string(claim.attempt) + ": " +
-            (t.kind == protocol::TaskKind::hierarchy ? std::string("hierarchy") : "level " + std::to_string(t.level)) +
+            (t.kind == protocol::TaskKind::hierarchy ? std::string("hierarchy")
+                                                     : "level " + std::to_string(t.level) + (t.stitch ? " stitch" : "")) +
             " frames (" + std::to_string(t.first) + ", " + std::to_string(t.last) + "] to " +
             s.name + (a.start > t.first ? ", continuing from frame " + std::to_string(a.start) : ""));
   top_up_feed(identity, s);
