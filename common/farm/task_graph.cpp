@@ -93,7 +93,10 @@ std::vector<FrameKey> subset_needs(int level, int first, int last) {
 }
 
 std::optional<NewTask> stitch_task(int level, int seam, int last, int stitch) {
-  const int w = std::min(stitch, last - seam);
+  // The later subset keeps at least its last two frames: the next seam's stitch continues from them.
+  // Were they stitched frames, each stitch would wait for the one before it: a chain through the
+  // whole level (pd plan: flag-large-10s at K = 64, W = 16 on 64 workers, 4 397 s against 126 s).
+  const int w = std::min(stitch, last - seam - 1);
   if (w < 2 || level < 1 || seam < 1) return std::nullopt;
   NewTask t = level_task(level, seam, seam + w - 1);
   t.stitch = true;

@@ -14,8 +14,9 @@
 //      others vertically (safe upsampling of level l - 1's frame a); one whose vertical start is
 //      refused continues horizontally instead (TaskStore::continue_horizontally adds the needs).
 //   4. with a stitch width W >= 2 (GraphOptions::stitch), at each seam s of a refinement level whose
-//      later subset (s, b] starts vertically: a stitch task (s, s + w - 1], w = min(W, b - s) (none
-//      when w < 2). The later subset stores its frames s + 1 .. s + w - 1 as guide frames (NewTask::
+//      later subset (s, b] starts vertically: a stitch task (s, s + w - 1], w = min(W, b - s - 1) (none
+//      when w < 2: the later subset keeps its last two frames, from which the next seam's stitch
+//      continues). The later subset stores its frames s + 1 .. s + w - 1 as guide frames (NewTask::
 //      guides = w - 1), not as the level's frames; the stitch task continues the earlier subset
 //      horizontally from the level's frames s - 1 and s and solves those frames itself, guided toward
 //      the guide frames with a weight ramped up to land on the later subset by s + w - 1
@@ -78,7 +79,7 @@ struct FrameRange {
 std::vector<pd::FrameKey> subset_needs(int level, int first, int last);
 
 // The stitch task of the seam s of a refinement level whose later subset is (s, b] (item 4 above), or
-// nullopt when min(stitch, b - s) < 2. Used for the job's graph and for a seam that moved.
+// nullopt when min(stitch, b - s - 1) < 2. Used for the job's graph and for a seam that moved.
 std::optional<pd::NewTask> stitch_task(int level, int seam, int last, int stitch);
 
 // The frames of level l - 1 a level-l task (a, b], l >= 1, is fed: max(a - 1, 0) .. b - 1 (the

@@ -298,15 +298,16 @@ TEST(TaskGraph, EachSeamOfEachRefinementLevelGetsAStitchTaskGuidedByTheLaterSubs
 }
 
 TEST(TaskGraph, AStitchIsClampedToItsLaterSubsetAndLeftOutBelowTwoFrames) {
-  // Later subset (9, 10]: one frame, w = min(4, 1) = 1 < 2: no stitch, no guides.
+  // Later subset (8, 10]: w = min(4, 1) = 1 < 2: no stitch, no guides.
   GraphOptions o{10, 2, 2, 10, false};
   o.stitch = 4;
-  EXPECT_EQ(describe(job_tasks(o, {9})).back(), "level 1 (9,10] after needs 0:8 0:9");
-  // Later subset (7, 10]: w = 3, the stitch (7, 9] guided by 8 and 9; the subset keeps only frame 10.
-  EXPECT_EQ(describe(job_tasks(o, {7})).back(), "level 1 (7,9] after needs 0:6 0:7 1:6 1:7 stitch guided by 1:8 1:9");
+  EXPECT_EQ(describe(job_tasks(o, {8})).back(), "level 1 (8,10] after needs 0:7 0:8");
+  // Later subset (6, 10]: w = 3, the stitch (6, 8] guided by 7 and 8; the subset keeps frames 9 and 10.
+  EXPECT_EQ(describe(job_tasks(o, {6})).back(), "level 1 (6,8] after needs 0:5 0:6 1:5 1:6 stitch guided by 1:7 1:8");
   EXPECT_FALSE(stitch_task(1, 5, 10, 1).has_value());
   EXPECT_FALSE(stitch_task(1, 5, 10, 0).has_value());
   EXPECT_EQ(stitch_task(2, 5, 30, 16)->last, 20);
+  EXPECT_EQ(stitch_task(2, 5, 15, 16)->last, 13);
 }
 
 TEST(TaskGraph, WithStitchesEveryFrameIsStoredOnceAndEveryGuideFrameFeedsOneStitch) {
@@ -328,6 +329,12 @@ TEST(TaskGraph, WithStitchesEveryFrameIsStoredOnceAndEveryGuideFrameFeedsOneStit
           if (t.stitch) {
             EXPECT_EQ(static_cast<int>(t.guide_needs.size()), t.last - t.first);
             EXPECT_LE(t.last - t.first + 1, w);
+            // Its own frames s - 1 and s are never another stitch's (no chain of stitches).
+            for (const NewTask& u : job_tasks(o)) {
+              if (u.stitch && u.level == t.level && u.first < t.first) {
+                EXPECT_LT(u.last, t.first - 1);
+              }
+            }
           }
         }
         for (int l = 0; l < levels; ++l)
