@@ -1,6 +1,6 @@
 // The farm under faults, with real processes and SIGKILL / SIGSTOP, not polite shutdowns: a worker
-// killed or frozen in the middle of a refinement task, the scheduler killed and restarted (at once,
-// or after 20 s down), and a refinement task that fails on every worker. Each job's frames must be
+// killed or frozen in the middle of a refinement task or of a seam's stitch, the scheduler killed and
+// restarted (at once, or after 20 s down), and a refinement task that fails on every worker. Each job's frames must be
 // those of an undisturbed `pd simulate --mode progressive` run bit for bit, and no frame may be
 // stored twice (counted in the scheduler's log).
 //
@@ -36,14 +36,17 @@ using test::FarmTest;
 
 constexpr int kFrames = 60;
 
-// Polls `pd status JOB --json` until a refinement task (level >= 1) runs with at least `frames` of
-// its frames stored and not all; returns that task's status object.
-json wait_for_running_refinement(const Farm& farm, int64_t job, int frames, std::chrono::seconds timeout = 180s) {
+// Polls `pd status JOB --json` until a refinement task (level >= 1; a seam's stitch task when
+// `stitch`) runs with at least `frames` of its frames stored and not all; returns that task's status
+// object.
+json wait_for_running_refinement(const Farm& farm, int64_t job, int frames, bool stitch = false,
+                                 std::chrono::seconds timeout = 180s) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (std::chrono::steady_clock::now() < deadline) {
     const json status = test::job_status(farm, job);  // kept: a loop over a temporary's member would dangle
     for (const json& t : status.at("tasks")) {
       if (t.at("kind") != "level" || t.at("level") < 1 || t.at("state") != "running") continue;
+      if (stitch && !t.at("stitch").get<bool>()) continue;
       const int done = t.at("frames_done"), total = t.at("last").get<int>() - t.at("first").get<int>();
       if (done >= frames && done < total) return t;
     }
@@ -131,6 +134,35 @@ TEST_F(FarmTest, AWorkerKilledMidRefinementLosesNoFrameAndTheNextAttemptContinue
   EXPECT_TRUE(log_has(farm.scheduler_log(), "task_assigned", "continuing from frame"))
       << "the killed task's next attempt did not continue from its stored frames";
   EXPECT_EQ(expect_no_frame_stored_twice(farm.scheduler_logs()), 3 * (kFrames + 1));
+}
+
+// A seam's stitch task whose worker is killed with some stitched frames stored: its next attempt
+// continues from them with the seam's ramp (AssignTask.guides carries every guide frame), and the
+// job's frames are, bit for bit, those of the same job run again undisturbed on the same farm. The
+// flag, 100 frames, K = 2, a 40-frame stitch (so that it runs long enough to be interrupted).
+TEST_F(FarmTest, AWorkerKilledDuringASeamsStitchLosesNothingAndTheFramesAreThoseOfTheUndisturbedJob) {
+  constexpr int kStitchFrames = 100;
+  Farm& farm = start_farm(2, "faults_kill_stitch");
+  const std::vector<std::string> args = {test::scene_path("flag.json"), "--frames", std::to_string(kStitchFrames),
+                                         "--subsets", "2", "--stitch", "40"};
+  const int64_t first = test::submit(farm, args);
+  const json task = wait_for_running_refinement(farm, first, 3, true);
+  farm.kill_worker(worker_number(task));
+  test::wait_until_done(farm, first, test::kLongJob);
+  EXPECT_TRUE(log_has(farm.scheduler_log(), "task_assigned", "stitch frames (" + std::to_string(task.at("first").get<int>())))
+      << "no stitch task was assigned";
+  bool resumed = false;
+  for (const json& e : test::log_events(farm.scheduler_log(), "task_assigned"))
+    resumed = resumed || (e.value("task", int64_t{0}) == task.at("id").get<int64_t>() &&
+                          e.at("message").get<std::string>().find("continuing from frame") != std::string::npos);
+  EXPECT_TRUE(resumed) << "the stitch's next attempt did not continue from its stored frames";
+  const int64_t again = test::submit(farm, args);
+  test::wait_until_done(farm, again, test::kLongJob);
+  test::fetch(farm, first, farm.dir() + "/first.h5");
+  test::fetch(farm, again, farm.dir() + "/again.h5");
+  const FrameReader a(farm.dir() + "/first.h5"), b(farm.dir() + "/again.h5");
+  ASSERT_EQ(a.num_levels(), b.num_levels());
+  for (int l = 0; l < a.num_levels(); ++l) test::expect_identical_frames(a, b, l, 0, kStitchFrames);
 }
 
 TEST_F(FarmTest, ASchedulerKilledMidJobAndRestartedOnItsDirectoryFinishesTheJobWithTheSameFrames) {
