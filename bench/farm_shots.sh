@@ -85,14 +85,7 @@ EOF
     seams=$(grep '"event":"seams_placed"' "$dir/scheduler.log" | sed -e 's/.*"message":"//' -e 's/".*//' |
             grep -o 'frame [0-9]*' | awk '{ printf "%s%s", sep, $2; sep = "," }')
     # Every frame where a later subset or a stitch's junction takes over, moved seams included.
-    starts=$("$python" - "$dir/farm.sqlite" <<'EOF'
-import sqlite3, sys
-db = sqlite3.connect(sys.argv[1])
-frames = {r[0] for r in db.execute("SELECT first FROM tasks WHERE kind = 'level' AND level >= 1 AND first > 0")}
-frames |= {r[0] for r in db.execute("SELECT last FROM tasks WHERE stitch = 1")}
-print(",".join(str(f) for f in sorted(frames)))
-EOF
-)
+    starts=$("$python" "$here/farm_seams.py" "$dir/farm.sqlite")
     if [ "$k" -ge 2 ] && [ -n "$seams" ] && [ -f "$work/$shot-K1.h5" ]; then
       echo "  seams placed: $seams; seams and junctions measured: $starts"
       "$pd" compare "$work/$shot-K1.h5" "$dir.h5" --seams "$starts" --csv "$dir.compare.csv" --force 2>/dev/null |

@@ -2,8 +2,8 @@
 # The speed-against-error report (docs/report/README.md and its PNGs) in one command.
 #
 #   bench/report/make_report.sh [--quick] [--out DIR] [--scenes a,b] [--frames N] [--work DIR]
-#                               [--pd PATH] [--k-scenes a,b] [--k-frames N] [--keep-going]
-#                               [--allow-missing-compare]
+#                               [--pd PATH] [--k-scenes a,b] [--k-frames N] [--plan-shots a,b]
+#                               [--plan-frames N] [--keep-going] [--allow-missing-compare]
 #
 # For each scene (default: every scenes/*.json) it runs, one pd process at a time so that each
 # cost is that of one core (pd sets OMP_THREAD_LIMIT=1 itself, util/process_setup.h):
@@ -13,13 +13,18 @@
 #   3. a direct run of each level's mesh (pd simulate --mode direct --level l, l = 0..L);
 # each timed (wall seconds of the pd call; the frame files also hold each frame's solve_seconds),
 # then pd compare REF.h5 OTHER.h5 --json for the progressive and every direct run. For the
-# K scenes (default flag and cube-trampoline) it runs the farm job for K = 1, 2, 4, 8
-# (pd run --workers 2 --subsets K), times it, and compares each against K = 1 with
-# pd compare K1.h5 KK.h5 --seams <each subset boundary> --json.
+# K scenes (default flag, cube-trampoline and drape-gear) it runs the farm job for K = 1, 2, 4, 8
+# (pd run --workers 2 --subsets K, seams stitched as pd's default), times it, and compares each
+# against K = 1 with pd compare K1.h5 KK.h5 --seams <every seam and stitch junction, read from the
+# job's task store by bench/farm_seams.py> --json. For the plan shots (default bench/scenes'
+# flag-large-10s, drape-25k, cube-trampoline-large-3s) it runs their first --plan-frames frames
+# (default 8) progressively and asks pd plan for the whole shot at K = 1, 8, 16, 64, 128 on 1, 8, 16,
+# 64 and 128 workers (plans/SHOT-KK.json): the page's scaling predictions.
 # Finally bench/report/plots.py (Debian's /usr/bin/python3 with python3-matplotlib and
 # python3-h5py) writes the PNGs and the page into --out.
 #
-# --quick (CI): two small scenes, 10 frames, K = 1, 2; under 3 minutes on one core.
+# --quick (CI): two small scenes, 10 frames, K = 1, 2, no plan shots; under 3 minutes on one core.
+# --plan-shots none: no plan shots.
 # --scenes none: no scene runs, only the farm runs of --k-scenes.
 # --frames N: at most N frames per scene (a scene with fewer keeps its own count).
 # --work DIR: where frame files, JSON and logs go (kept); default a temporary folder, removed.
@@ -35,7 +40,8 @@ repo=$(cd "$here/../.." && pwd)
 python=/usr/bin/python3  # Debian's: its matplotlib and h5py (not a pyenv python on PATH)
 
 out="$repo/docs/report" scenes="" frames="" work="" pd="${PD:-$repo/build/client/pd}" quick=0
-k_scenes="flag,cube-trampoline" k_frames="" k_values="1 2 4 8" keep_going=0 allow_missing_compare=0
+k_scenes="flag,cube-trampoline,drape-gear" k_frames="" k_values="1 2 4 8" keep_going=0 allow_missing_compare=0
+plan_shots="flag-large-10s,drape-25k,cube-trampoline-large-3s" plan_frames=8 farm_store=""
 usage() { awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "${BASH_SOURCE[0]}" >&2; exit 2; }
 while (($#)); do
   case "$1" in
@@ -47,6 +53,8 @@ while (($#)); do
     --pd) pd=${2:?--pd needs a path}; shift ;;
     --k-scenes) k_scenes=${2?--k-scenes needs a list}; shift ;;
     --k-frames) k_frames=${2:?--k-frames needs a number}; shift ;;
+    --plan-shots) plan_shots=${2:?--plan-shots needs a list}; shift ;;
+    --plan-frames) plan_frames=${2:?--plan-frames needs a number}; shift ;;
     --keep-going) keep_going=1 ;;
     --allow-missing-compare) allow_missing_compare=1 ;;
     -h|--help) usage ;;
@@ -57,9 +65,10 @@ done
 if ((quick)); then
   # The two cheapest three-level scenes with contact and a strain limit between them.
   scenes=${scenes:-cube-trampoline,flag} frames=${frames:-10} k_values="1 2"
-  k_scenes="cube-trampoline,flag" k_frames=${k_frames:-10}
+  k_scenes="cube-trampoline,flag" k_frames=${k_frames:-10} plan_shots=none
 fi
-for n in "$frames" "$k_frames"; do
+[[ "$plan_shots" == none ]] && plan_shots=""
+for n in "$frames" "$k_frames" "$plan_frames"; do
   [[ -z "$n" || "$n" =~ ^[1-9][0-9]*$ ]] || { echo "make_report.sh: frame counts must be integers >= 1, got '$n'" >&2; exit 2; }
 done
 [[ -x "$pd" ]] || { echo "make_report.sh: no pd binary at $pd (build it, or give --pd / \$PD)" >&2; exit 2; }
@@ -74,7 +83,7 @@ if [[ -z "$work" ]]; then
   work=$(mktemp -d /tmp/pd-report.XXXXXX)
   trap 'rm -rf "$work"' EXIT
 fi
-mkdir -p "$work/logs" "$work/scenes" "$work/compare" "$out" || exit 1
+mkdir -p "$work/logs" "$work/scenes" "$work/compare" "$work/farms" "$work/plans" "$out" || exit 1
 manifest="$work/runs.tsv"
 echo "${command_line% }" >"$work/command.txt"
 printf 'id\tscene\tkind\tlevel\tsubsets\tframes\th5\twall_s\tstatus\tcompare_json\n' >"$manifest"
@@ -154,24 +163,14 @@ json.dump(scene, open(dst, "w"), indent=1)
 EOF
 }
 
-# The seams of K subsets of N frames (common/farm/task_graph.cpp: b_k = (k N + K/2) / K, K clamped
-# to N): the inner boundaries b_1..b_{K-1}, where a later subset starts (it solves b + 1 first).
-# pd compare --seams takes these T and measures the frames T and T + 1 of each.
-seam_frames() {
-  local n=$1 k=$2 list="" i
-  ((k > n)) && k=$n
-  for ((i = 1; i < k; ++i)); do
-    list+="${list:+,}$(((i * n + k / 2) / k))"
-  done
-  echo "$list"
-}
-
-# Runs one pd call and records it; compares it against REF unless REF is empty.
+# Runs one pd call and records it; compares it against REF unless REF is empty. With $farm_store set
+# (a farm run's farm.sqlite), the comparison measures the seams and junctions the job had.
 run_one() {
   local id=$1 scene=$2 kind=$3 level=$4 subsets=$5 n=$6 h5=$7 ref=$8; shift 8
-  local cmp="-" status=ok
+  local cmp="-" status=ok seams=""
   log "$id: $*"
   if timed "$id" "$@"; then
+    [[ -n "$farm_store" ]] && seams=$("$python" "$repo/bench/farm_seams.py" "$farm_store")
     if [[ -n "$ref" ]]; then
       cmp=$(compare "$id" "$ref" "$h5" ${seams:+--seams "$seams"})
       if [[ "$cmp" == FAIL ]]; then
@@ -200,7 +199,7 @@ for name in "${scene_list[@]}"; do
   ref_scene="$work/scenes/$name.json"
   reference_scene "$src" "$ref_scene" || { fail "$name: cannot write the reference scene"; continue; }
   ref="$work/$name.reference.h5"
-  seams=""
+  farm_store=""
   run_one "$name/reference" "$name" reference "$finest" 0 "$n" "$ref" "" \
     "$pd" simulate "$ref_scene" --out "$ref" --mode direct --level "$finest" --frames "$n" --quiet --allow-unconverged
   [[ -f "$ref" ]] || continue
@@ -221,14 +220,36 @@ for name in "${k_list[@]}"; do
   k1="$work/$name.farm-K1.h5"
   for k in $k_values; do
     h5="$work/$name.farm-K$k.h5"
-    seams="" ref=""
-    if ((k > 1)); then seams=$(seam_frames "$n" "$k") ref=$k1; fi
+    ref=""
+    ((k > 1)) && ref=$k1
     [[ -n "$ref" && ! -f "$ref" ]] && ref=""
+    farm_store="$work/farms/$name-K$k/farm.sqlite"
+    rm -rf "$work/farms/$name-K$k"
     run_one "$name/farm-K$k" "$name" farm all "$k" "$n" "$h5" "$ref" \
-      "$pd" run "$src" --workers 2 --subsets "$k" --frames "$n" --out "$h5"
+      "$pd" run "$src" --workers 2 --subsets "$k" --frames "$n" --out "$h5" --keep-farm "$work/farms/$name-K$k"
   done
 done
-seams=""
+farm_store=""
+
+# The plan shots: a few frames of each for its step costs, then pd plan for the whole shot.
+IFS=, read -r -a plan_list <<<"$plan_shots"
+for name in "${plan_list[@]}"; do
+  [[ -n "$name" ]] || continue
+  src="$repo/bench/scenes/$name.json"
+  [[ -f "$src" ]] || { fail "$name: no benchmark scene $src"; continue; }
+  full=$(scene_frames "$src" "")
+  h5="$work/plans/$name.h5"
+  log "$name/plan-run: $plan_frames frames of bench/scenes/$name.json"
+  if ! timed "$name/plan-run" "$pd" simulate "$src" --out "$h5" --mode progressive --frames "$plan_frames" --quiet \
+      --allow-unconverged; then
+    fail "$name: pd simulate for its step costs (see $work/logs/$name.plan-run.log)"
+    continue
+  fi
+  for k in 1 8 16 64 128; do
+    "$pd" plan "$h5" --frames "$full" --subsets "$k" --workers 1,8,16,64,128 --json >"$work/plans/$name-K$k.json" \
+      2>"$work/logs/$name.plan-K$k.log" || fail "$name: pd plan --subsets $k (see $work/logs/$name.plan-K$k.log)"
+  done
+done
 
 log "plots and page: $python $here/plots.py --work $work --out $out"
 "$python" "$here/plots.py" --work "$work" --out "$out" || { log "FAILED: plots.py"; exit 1; }

@@ -4,9 +4,11 @@ files (HDF5, docs/frame-format.md) and the pd compare --json outputs (compare/<i
 Units: seconds, metres, joules throughout; costs are seconds of computing per simulated second.
 """
 import csv
+import glob
 import json
 import math
 import os
+import re
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
@@ -190,6 +192,12 @@ class FarmRow:
     max_seam_d: float    # m per frame^2 (second differences, not divided by h^2)
     median_other: float  # that level's median d over the frames after the first seam that are not seams
     note: str            # pd compare's ratio_note of that level, when its ratio is null
+    # Seam pops (pd compare --seams: every seam and stitch junction of every refinement level).
+    measured: int = 0    # seams and junctions measured, all levels together
+    visible: int = 0     # of them visible (pop > 0.5 and > 1.5x the K = 1 run's)
+    max_pop: float = math.nan       # the largest pop of a level >= 1
+    max_pop_base: float = math.nan  # the K = 1 run's pop at the same level and frame
+    max_pop_where: str = ""         # "level l frame s"
 
 
 def farm_series(runs: List[Run]) -> Dict[str, List[FarmRow]]:
@@ -202,11 +210,48 @@ def farm_series(runs: List[Run]) -> Dict[str, List[FarmRow]]:
             num = lambda j, key: float(j[key]) if isinstance(j.get(key), (int, float)) else math.nan
             worst = max(entries, key=lambda j: num(j, "max_seam_d_m") if math.isfinite(num(j, "max_seam_d_m"))
                         else -1.0, default=None)
-            rows.append(FarmRow(r.subsets, r.wall_s, int(worst.get("level", -1)) if worst else -1,
-                                num(worst, "ratio") if worst else math.nan,
-                                num(worst, "max_seam_d_m") if worst else math.nan,
-                                num(worst, "median_other_d_m") if worst else math.nan,
-                                str(worst.get("ratio_note", "")) if worst and worst.get("ratio") is None else ""))
+            row = FarmRow(r.subsets, r.wall_s, int(worst.get("level", -1)) if worst else -1,
+                          num(worst, "ratio") if worst else math.nan,
+                          num(worst, "max_seam_d_m") if worst else math.nan,
+                          num(worst, "median_other_d_m") if worst else math.nan,
+                          str(worst.get("ratio_note", "")) if worst and worst.get("ratio") is None else "")
+            for level in (r.compare or {}).get("seam_pop") or []:
+                if not isinstance(level, dict):
+                    continue
+                for seam in level.get("seams") or []:
+                    row.measured += 1
+                    row.visible += 1 if seam.get("visible") is True else 0
+                    pop = num(seam, "pop")
+                    if int(level.get("level", 0)) >= 1 and math.isfinite(pop) and not pop <= row.max_pop:
+                        row.max_pop, row.max_pop_base = pop, num(seam, "baseline_pop")
+                        row.max_pop_where = f"level {level.get('level')} frame {seam.get('seam')}"
+            rows.append(row)
         if rows:
             series[scene] = rows
     return series
+
+
+@dataclass
+class PlanRow:
+    """pd plan's prediction for a benchmark shot at K subsets (plans/SHOT-KK.json)."""
+    shot: str
+    frames: int
+    k: int
+    stitch: int
+    makespan: Dict[int, float]  # workers -> predicted wall seconds
+
+
+def plan_rows(work: str) -> List[PlanRow]:
+    """The plan shots' predictions, by shot then K; unreadable files are skipped."""
+    rows = []
+    for path in sorted(glob.glob(os.path.join(work, "plans", "*-K*.json"))):
+        m = re.match(r"(.+)-K(\d+)\.json$", os.path.basename(path))
+        try:
+            j = json.load(open(path))
+            makespan = {int(p["workers"]): float(p["makespan_seconds"]) for p in j["plans"]}
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        rows.append(PlanRow(m.group(1), int(j.get("frames", 0)), int(m.group(2)), int(j.get("stitch", 0)), makespan))
+    rows.sort(key=lambda r: (r.shot, r.k))
+    return rows
+

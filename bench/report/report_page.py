@@ -172,6 +172,10 @@ def farm_reading(series, runs) -> list:
             s += f"the shortest wall time is at K = {best.k}; more time subsets did not pay here"
         else:
             s += f"the shortest wall time is at K = {best.k}, {num(base / best.wall_s)}x faster than K = 1"
+        popped = [r for r in rows if r.measured]
+        if popped:
+            s += "; visible seams (of seams and stitch junctions measured): " + ", ".join(
+                f"K = {r.k}: {r.visible} of {r.measured}" for r in popped)
         seams = [r for r in rows if math.isfinite(r.max_seam_d)]
         if seams:
             worst = max(seams, key=lambda r: r.max_seam_d)
@@ -236,15 +240,36 @@ def write_page(out_dir, works, runs, images, farm_png, farm_series) -> str:
     for scene, points in per_scene.items():
         lines += level_rows(scene, points)
     if farm_png:
-        lines += ["", "## Farm: wall time and seam jitter against K", "", f"![farm](./{farm_png})", "",
-                  "Each row's seam figures are those of the level with the largest seam d (its ratio is the ratio of "
-                  "the two d columns).", "",
-                  "| scene | K | wall s | level | max seam d (m/frame²) | median other d (m/frame²) | ratio |",
-                  "| --- | ---: | ---: | ---: | ---: | ---: | --- |"]
+        lines += ["", "## Farm: wall time, seam pops and seam jitter against K", "", f"![farm](./{farm_png})", "",
+                  "Seams are stitched (pd's default, 16 frames). Pops (pd compare --seams) are measured at every "
+                  "seam and every stitch's junction of every level; a seam is visible when its pop is above 0.5 and "
+                  "above 1.5x the K = 1 run's at the same frame. The seam d figures are those of the level with the "
+                  "largest seam d (its ratio is the ratio of the two d columns).", "",
+                  "| scene | K | wall s | visible / measured | largest pop (K = 1), where | level | max seam d (m/frame²) "
+                  "| median other d (m/frame²) | ratio |",
+                  "| --- | ---: | ---: | ---: | --- | ---: | ---: | ---: | --- |"]
         for scene, rows in farm_series.items():
-            lines += [f"| {scene} | {r.k} | {r.wall_s:.2f} | {r.level if r.level >= 0 else '–'} | {num(r.max_seam_d)} | "
+            lines += [f"| {scene} | {r.k} | {r.wall_s:.2f} | {f'{r.visible} / {r.measured}' if r.measured else '–'} | "
+                      f"{f'{num(r.max_pop)} ({num(r.max_pop_base)}), {r.max_pop_where}' if r.max_pop_where else '–'} | "
+                      f"{r.level if r.level >= 0 else '–'} | {num(r.max_seam_d)} | "
                       f"{num(r.median_other)} | {num(r.ratio) if math.isfinite(r.ratio) else (r.note or '–')} |"
                       for r in rows]
+    plans = [p for w in works for p in rd.plan_rows(w)]
+    if plans:
+        workers = sorted({w for p in plans for w in p.makespan})
+        lines += ["", "## Benchmark shots: predicted wall time on many workers", "",
+                  "pd plan replays each shot's whole task graph (seams stitched, 16 frames) from the step costs of "
+                  "its first frames run progressively (bench/scenes; one core each). Speed-up against the shot at "
+                  "K = 1 on one worker.", "",
+                  "| shot | frames | K | " + " | ".join(f"{w} worker{'s' if w > 1 else ''}" for w in workers) + " |",
+                  "| --- | ---: | ---: | " + " | ".join("---:" for _ in workers) + " |"]
+        base = {p.shot: p.makespan.get(1, math.nan) for p in plans if p.k == 1}
+        for p in plans:
+            cells = []
+            for w in workers:
+                t, b = p.makespan.get(w, math.nan), base.get(p.shot, math.nan)
+                cells.append(f"{t:.0f} s ({b / t:.1f}x)" if math.isfinite(t) and math.isfinite(b) and t > 0 else "–")
+            lines.append(f"| {p.shot} | {p.frames} | {p.k} | " + " | ".join(cells) + " |")
     for scene, pngs in images.items():
         lines += ["", f"## {scene}", ""] + [f"![{p[:-4]}](./{p})" for p in pngs]
     path = os.path.join(out_dir, "README.md")
