@@ -49,7 +49,7 @@ constexpr int64_t kIntMax = 2147483647;
 CLI::Validator count_at_least_one() { return pd::cli::decimal_integer(1, kIntMax); }
 CLI::Validator job_id() { return pd::cli::decimal_integer(1, INT64_MAX, "a positive integer (a job id)"); }
 CLI::Validator frame_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxFrames); }
-CLI::Validator stitch_frames() { return pd::cli::decimal_integer(0, pd::cli::kMaxFrames); }
+CLI::Validator stitch_frames() { return pd::cli::decimal_integer(0, pd::farm::kMaxStitchFrames); }
 CLI::Validator level_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxLevels); }
 CLI::Validator level_index() { return pd::cli::decimal_integer(0, pd::cli::kMaxLevels - 1); }
 CLI::Validator positive_seconds() { return pd::cli::decimal_real(0.0, true, 1e9, "seconds, > 0 and <= 1e9"); }

@@ -223,7 +223,7 @@ CLI::App* add_plan_subcommand(CLI::App& app, PlanArgs& args) {
   cmd->add_option("--subsets", args.subsets, "Time subsets K per refinement level (default 1)")
       ->transform(decimal_integer(1, 2147483647));
   cmd->add_option("--stitch", args.stitch, "Frames each seam is stitched over, as pd submit --stitch (default 16)")
-      ->transform(decimal_integer(0, kMaxFrames));
+      ->transform(decimal_integer(0, farm::kMaxStitchFrames));
   cmd->add_option("--frames", args.frames,
                   "Frames N to plan (default 0: the file's); a longer shot is planned with the file's step costs")
       ->transform(decimal_integer(0, kMaxFrames));

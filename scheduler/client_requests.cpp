@@ -49,6 +49,8 @@ protocol::Reply Scheduler::serve(protocol::SubmitJob& m) {
     return error(e.what());
   }
   if (m.subsets < 1) return error("submit: subsets: must be >= 1, got " + std::to_string(m.subsets));
+  if (m.stitch > farm::kMaxStitchFrames)
+    return error("submit: stitch: must be <= " + std::to_string(farm::kMaxStitchFrames) + ", got " + std::to_string(m.stitch));
   if (m.levels < 0 || m.frames < 0 || m.preview_chunk < 0)
     return error("submit: levels, frames and preview_chunk must be >= 0 (0 = the scene's)");
   NewJob job;
@@ -94,6 +96,8 @@ protocol::Reply Scheduler::serve(protocol::RefineJob& m) {
   if (job->state == protocol::JobState::failed || job->state == protocol::JobState::cancelled)
     return error("job " + std::to_string(m.job) + " is " + protocol::to_string(job->state) + ": nothing to refine");
   if (m.subsets < 1) return error("refine: subsets: must be >= 1, got " + std::to_string(m.subsets));
+  if (m.stitch > farm::kMaxStitchFrames)
+    return error("refine: stitch: must be <= " + std::to_string(farm::kMaxStitchFrames) + ", got " + std::to_string(m.stitch));
   if (job->spec.levels < 2) return error("job " + std::to_string(m.job) + " has one level: nothing to refine");
   store_->set_subsets(m.job, m.subsets, m.stitch);
   store_->set_preview_only(m.job, false);

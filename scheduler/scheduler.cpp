@@ -230,7 +230,23 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
       a.own_start = as_vector(f->writer->read_frame(t.level, a.start));
       a.own_kappa = store_->frame_kappa(t.job, {t.level, a.start});
     }
-    // A stitch task: the later subset's guide frames, all of them (the ramp counts from the seam).
+    // A stitch task: the later subset's guide frames, all of them (the ramp counts from the seam),
+    // in one message: its size is checked before the frames are read (a fine level and a wide
+    // stitch could pass the message limit), and the task fails with the reason if it is over.
+    if (t.stitch) {
+      const double bytes = double(t.last - t.first + 2) * 3.0 * f->vertices[static_cast<std::size_t>(t.level)] * 8.0;
+      if (bytes > 0.9 * double(protocol::kMaxMessageBytes)) {
+        const std::string why = "the stitch (" + std::to_string(t.first) + ", " + std::to_string(t.last) + "] of level " +
+                                std::to_string(t.level) + " needs " + std::to_string(static_cast<int64_t>(bytes)) +
+                                " bytes of guide frames in one assignment, over the message limit of " +
+                                std::to_string(protocol::kMaxMessageBytes) + ": submit with a smaller --stitch";
+        store_->fail_task(t.id, why);
+        event("task_failed", t.job, t.id, s.worker, why);
+        event("job_failed", t.job, 0, 0, store_->job(t.job).reason);
+        cancel_attempts_of_job(t.job, "job failed");
+        return false;
+      }
+    }
     for (int g = t.first + 1; t.stitch && g <= t.last; ++g) {
       std::optional<std::vector<double>> guide = store_->guide_frame(t.job, {t.level, g});
       if (!guide) {  // cannot happen: the task was ready, so its guide frames were stored

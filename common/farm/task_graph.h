@@ -53,6 +53,9 @@ struct GraphOptions {
 // The default stitch width: 16 frames removed every visible seam measured on the flag and drape-gear
 // (docs/progressive.md, "Stitching a seam"), for about 16 of the level's steps per seam.
 constexpr int kDefaultStitchFrames = 16;
+// The widest stitch a job may ask for: a stitch task is sent all its guide frames in one assignment
+// (at most kMaxStitchFrames - 1 frames of the level), and 1 000 frames is 10 s of a shot at 100 fps.
+constexpr int kMaxStitchFrames = 1000;
 
 // The level-0 chunk length used when GraphOptions::preview_chunk is 0: min(50, N) frames.
 int default_preview_chunk(int frames);

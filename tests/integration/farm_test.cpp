@@ -316,6 +316,7 @@ TEST_F(FarmTest, BadScenesJobsOptionsAndUnreachableFarmsExitTwoWithClearMessages
   expect_usage_error(farm.pd({"cancel", "999"}), "999");
   const std::string valid = scene_path("cube-trampoline.json");
   expect_usage_error(farm.pd({"submit", "--subsets", "0", valid}), "--subsets");
+  expect_usage_error(farm.pd({"submit", valid, "--subsets", "2", "--stitch", "1001"}), "--stitch");
   expect_usage_error(farm.pd({"submit", valid, "--frames", "-3"}), "--frames");
   expect_usage_error(farm.pd({"status", "--wait"}), "--wait");
 

@@ -27,6 +27,8 @@
 #include <nlohmann/json.hpp>
 
 #include "farm/messaging.h"
+#include "farm/scene_source.h"
+#include "farm/task_graph.h"
 #include "protocol/protocol.h"
 #include "store/frame_store.h"
 #include "support/farm.h"
@@ -788,6 +790,14 @@ void client_cases(zmq::context_t& ctx, const test::Farm& farm, int64_t failed_jo
   c.expect("a cancel for a job never submitted", error_of(protocol::encode(protocol::CancelJob{999})), "no job 999");
   c.expect("a refine of a job that has its levels", error_of(protocol::encode(protocol::RefineJob{failed_job, 1})),
            "already has its refinement levels");
+  // A stitch wider than the farm allows (the client refuses it first; the scheduler too).
+  protocol::SubmitJob wide;
+  wide.scene = farm::read_scene_source(test::scene_path("cube-trampoline.json"));
+  wide.subsets = 2;
+  wide.stitch = farm::kMaxStitchFrames + 1;
+  c.expect("a submit with a stitch over the limit", error_of(protocol::encode(wide)),
+           "submit: stitch: must be <= " + std::to_string(farm::kMaxStitchFrames) + ", got " +
+               std::to_string(farm::kMaxStitchFrames + 1));
 }
 
 // Below libzmq: a frame declaring more than ZMQ_MAXMSGSIZE (kMaxMessageBytes) drops the connection
@@ -900,7 +910,7 @@ TEST_F(FarmTest, OutOfOrderAndForgedReportsAreRefusedNamingTheReasonAndTheSchedu
   for (const auto& [name, reason] : client_side.list)
     std::printf("clients socket: %-44s -> %s\n", name.c_str(), reason.c_str());
   EXPECT_EQ(cases.list.size(), 20u);
-  EXPECT_EQ(client_side.list.size(), 5u);
+  EXPECT_EQ(client_side.list.size(), 6u);
   EXPECT_EQ(logged, static_cast<int>(cases.list.size())) << "refusals missing from the log";
   EXPECT_EQ(refused.size(), cases.list.size() + static_cast<std::size_t>(claims)) << "refusals not accounted for";
 
