@@ -147,8 +147,9 @@ void LocalFarm::start(const std::string& dir, int n_workers, int worker_threads,
   const std::string log = dir_ + "/scheduler.log";
   pid_t pid = -1;
   try {
+    // --exit-with-parent: a pd run killed outright (SIGKILL, no destructor) takes its farm with it.
     pid = spawn({binaries_.scheduler, "--dir", dir_, "--workers-endpoint", "tcp://127.0.0.1:0", "--clients-endpoint",
-                 "tcp://127.0.0.1:0"},
+                 "tcp://127.0.0.1:0", "--exit-with-parent", std::to_string(getpid())},
                 log, fds[1]);
   } catch (...) {
     close(fds[0]);
@@ -164,7 +165,8 @@ void LocalFarm::start(const std::string& dir, int n_workers, int worker_threads,
   for (int k = 1; k <= n_workers; ++k) {
     const std::string name = "w" + std::to_string(k);
     const std::string worker_log = dir_ + "/worker-" + std::to_string(k) + ".log";
-    std::vector<std::string> argv = {binaries_.worker, "--connect", workers_, "--name", name};
+    std::vector<std::string> argv = {binaries_.worker, "--connect", workers_, "--name", name,
+                                     "--exit-with-parent", std::to_string(getpid())};
     if (worker_threads > 0) argv.insert(argv.end(), {"--threads", std::to_string(worker_threads)});
     const pid_t w = spawn(argv, worker_log, -1);
     children_.push_back({"pd-worker " + name, worker_log, w, true, false});

@@ -16,6 +16,7 @@
 #include "scheduler/scheduler.h"
 #include "scheduler/security.h"
 #include "util/input_error.h"
+#include "util/parent_watch.h"
 
 namespace {
 
@@ -65,6 +66,9 @@ int main(int argc, char** argv) {
                  "Seconds a Slurm worker waits for a silent scheduler before it exits (pd-worker --scheduler-timeout)")
       ->check(CLI::Range(1.0, 1e7))
       ->capture_default_str();
+  int parent = 0;
+  app.add_option("--exit-with-parent", parent, "Stop as on SIGTERM when process PID, the one that started this one, ends, however it ends (pd run and the tests pass their own pid)")
+      ->check(CLI::Range(1, 1 << 30));
   app.add_option("--generate-keys", generate_prefix,
                  "Write a new key pair to PREFIX.key (mode 0600) and PREFIX.pub, then exit");
   try {
@@ -98,6 +102,7 @@ int main(int argc, char** argv) {
   sigaction(SIGTERM, &sa, nullptr);
   std::unique_ptr<pd::scheduler::Scheduler> scheduler;
   try {
+    if (parent > 0) pd::exit_with_parent(parent, SIGTERM);
     scheduler = std::make_unique<pd::scheduler::Scheduler>(options);
   } catch (const pd::InputError& e) {
     std::fprintf(stderr, "pd-scheduler: error: %s\n", e.what());

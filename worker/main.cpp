@@ -16,6 +16,7 @@
 #include "farm/messaging.h"
 #include "util/input_error.h"
 #include "util/parallel.h"
+#include "util/parent_watch.h"
 #include "util/process_setup.h"
 #include "worker/worker.h"
 
@@ -59,6 +60,9 @@ int main(int argc, char** argv) {
                  "Exit (code 3) once nothing has come from the scheduler for this many seconds (0: retry for ever; "
                  "the Slurm job script sets it, so that no allocation waits for a scheduler that is gone)")
       ->check(CLI::Range(0.0, 1e7));
+  int parent = 0;
+  app.add_option("--exit-with-parent", parent, "Stop as on SIGTERM when process PID, the one that started this one, ends, however it ends (pd run and the tests pass their own pid)")
+      ->check(CLI::Range(1, 1 << 30));
   int threads = 0;
   app.add_option("--threads", threads,
                  "Threads for the element loops of a task (default 0: every core this process may use, i.e. "
@@ -107,6 +111,7 @@ int main(int argc, char** argv) {
   sigaction(SIGTERM, &sa, nullptr);
   int code = 1;
   try {
+    if (parent > 0) pd::exit_with_parent(parent, SIGTERM);
     code = pd::worker::run_worker(options, g_stop);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "pd-worker: error: %s\n", e.what());

@@ -356,6 +356,10 @@ class AdoptOrphans {
   // This process's children (pid, command name from /proc/<pid>/stat) but those in `known`,
   // zombies included: a zombie here is a child its parent did not reap.
   static std::vector<std::pair<pid_t, std::string>> children(const std::set<pid_t>& known) {
+    return children_of(getpid(), known);
+  }
+  // The same for the children of `parent`; the name ends with " (state S)", Z for a zombie.
+  static std::vector<std::pair<pid_t, std::string>> children_of(pid_t parent, const std::set<pid_t>& known) {
     std::vector<std::pair<pid_t, std::string>> out;
     DIR* proc = opendir("/proc");
     if (!proc) return out;
@@ -368,7 +372,7 @@ class AdoptOrphans {
       if (open == std::string::npos || close == std::string::npos || close + 2 > stat.size()) continue;
       char state = 0;
       long ppid = 0;
-      if (std::sscanf(stat.c_str() + close + 2, "%c %ld", &state, &ppid) != 2 || ppid != getpid()) continue;
+      if (std::sscanf(stat.c_str() + close + 2, "%c %ld", &state, &ppid) != 2 || ppid != parent) continue;
       out.emplace_back(pid, stat.substr(open + 1, close - open - 1) + " (state " + state + ")");
     }
     closedir(proc);
@@ -441,6 +445,62 @@ TEST(PdRun, TwoWorkersTwentyFramesMatchPdSimulateBitForBitAndLeaveNoFarmProcess)
   ASSERT_EQ(got.num_frames(), kFrames + 1);
   ASSERT_EQ(got.num_frames(), want.num_frames());
   for (int l = 0; l < got.num_levels(); ++l) expect_identical_frames(got, want, l, 0, kFrames);
+  if (!HasFailure()) std::filesystem::remove_all(dir);
+}
+
+// Kills `parent` outright (SIGKILL: no destructor, no handler runs) once it has `count` children, and
+// returns whether all of them then ended within 20 s (this test process adopts them: AdoptOrphans
+// must be alive). Their --exit-with-parent makes the kernel stop them when their parent dies.
+bool children_end_with_their_killed_parent(test::Process& parent, std::size_t count, std::string& report) {
+  const auto deadline = std::chrono::steady_clock::now() + 60s;
+  std::vector<std::pair<pid_t, std::string>> kids;
+  while ((kids = AdoptOrphans::children_of(parent.pid(), {})).size() < count && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(50ms);
+  if (kids.size() < count) {
+    report = "the parent had " + std::to_string(kids.size()) + " children, not " + std::to_string(count);
+    return false;
+  }
+  std::this_thread::sleep_for(500ms);  // started and past their option parsing
+  kill(parent.pid(), SIGKILL);
+  parent.wait_for_exit(10s);
+  std::set<pid_t> pids;
+  for (const auto& [pid, name] : kids) pids.insert(pid);
+  const auto end = std::chrono::steady_clock::now() + 20s;
+  while (std::chrono::steady_clock::now() < end) {
+    std::string alive;
+    for (const auto& [pid, name] : AdoptOrphans::children({}))
+      if (pids.count(pid) && name.find("(state Z)") == std::string::npos) alive += std::to_string(pid) + " " + name + "; ";
+    if (alive.empty()) return true;
+    report = "still running: " + alive;
+    std::this_thread::sleep_for(100ms);
+  }
+  return false;
+}
+
+// pd run killed outright: its scheduler and two workers stop with it.
+TEST(PdRun, AKilledPdRunTakesItsSchedulerAndWorkersWithIt) {
+  const std::string dir = test::scratch_dir("pd_run_killed");
+  const AdoptOrphans adopt;
+  test::Process run;
+  run.start({PD_BINARY, "run", scene_path("flag.json"), "--workers", "2", "--out", dir + "/run.h5", "--frames", "2000"},
+            {{"PD_SCHEDULER_BIN", PD_SCHEDULER_BINARY}, {"PD_WORKER_BIN", PD_WORKER_BINARY}}, dir + "/run.out",
+            dir + "/run.err");
+  std::string report;
+  EXPECT_TRUE(children_end_with_their_killed_parent(run, 3, report)) << report;
+  if (!HasFailure()) std::filesystem::remove_all(dir);
+}
+
+// A test process killed outright (a signal, ctest's timeout): the farm its test started (a scheduler
+// and two workers, tests/support/farm.h) stops with it. The killed process runs one of this binary's
+// own farm tests.
+TEST(TestFarm, AKilledTestProcessTakesItsFarmWithIt) {
+  const std::string dir = test::scratch_dir("test_killed");
+  const AdoptOrphans adopt;
+  test::Process child;
+  child.start({"/proc/self/exe", "--gtest_filter=FarmTest.AStitchedSeamDoesNotPopWhereTheUnstitchedSeamDoes"}, {},
+              dir + "/child.out", dir + "/child.err");
+  std::string report;
+  EXPECT_TRUE(children_end_with_their_killed_parent(child, 3, report)) << report;
   if (!HasFailure()) std::filesystem::remove_all(dir);
 }
 

@@ -1,6 +1,7 @@
 #include "support/farm.h"
 
 #include <signal.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -40,7 +41,9 @@ int Farm::add_worker(const Args& args) {
   worker_logs_.push_back(dir_ + "/worker-" + name + ".log");
   workers_.emplace_back();
   // --scratch inside the test's folder: the default /tmp/pd-worker-<pid> outlives a killed worker.
-  Args argv = {PD_WORKER_BINARY, "--connect", workers_endpoint_, "--name", name, "--scratch", dir_ + "/scratch-" + name};
+  // --exit-with-parent: a test process killed outright (a signal, ctest's timeout) takes its farm with it.
+  Args argv = {PD_WORKER_BINARY, "--connect", workers_endpoint_, "--name", name, "--scratch", dir_ + "/scratch-" + name,
+               "--exit-with-parent", std::to_string(getpid())};
   argv.insert(argv.end(), args.begin(), args.end());
   workers_.back().start(argv, {}, worker_logs_.back(), worker_logs_.back());
   return k;
@@ -58,7 +61,9 @@ void Farm::start_scheduler() {
                "--clients-endpoint",
                restart ? clients_ : "tcp://127.0.0.1:0",
                "--heartbeat-ms",
-               std::to_string(options_.heartbeat_ms)};
+               std::to_string(options_.heartbeat_ms),
+               "--exit-with-parent",
+               std::to_string(getpid())};
   argv.insert(argv.end(), options_.scheduler_args.begin(), options_.scheduler_args.end());
   scheduler_ = Process();
   scheduler_.start(argv, options_.scheduler_env, out, logs_.back());
