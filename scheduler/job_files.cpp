@@ -1,5 +1,6 @@
 #include "scheduler/job_files.h"
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -7,12 +8,15 @@
 
 #include "store/hierarchy_store.h"
 #include "util/input_error.h"
+#include "util/subprocess.h"
 
 namespace pd::scheduler {
 
 namespace fs = std::filesystem;
 
-JobFiles::JobFiles(std::string jobs_dir) : dir_(std::move(jobs_dir)) { fs::create_directories(dir_); }
+JobFiles::JobFiles(std::string jobs_dir, std::string checker) : dir_(std::move(jobs_dir)), checker_(std::move(checker)) {
+  fs::create_directories(dir_);
+}
 
 std::string JobFiles::path_of(int64_t job) const { return dir_ + "/" + std::to_string(job) + ".h5"; }
 
@@ -43,6 +47,30 @@ void check_frame_stats(const std::vector<protocol::Stat>& stats) {
   }
 }
 
+SceneHierarchy check_hierarchy_file(const std::string& path, const std::string& hash, int levels) {
+  std::optional<SceneHierarchy> h = read_hierarchy(path);
+  if (!h) throw InputError(path + ": /hierarchy@hash: the hierarchy task's file has no hierarchy");
+  if (h->hash != hash) throw InputError(path + ": /hierarchy@hash: " + h->hash + ", the report says " + hash);
+  if (h->num_levels() != levels)
+    throw InputError(path + ": the hierarchy has " + std::to_string(h->num_levels()) + " levels, the job asks for " +
+                     std::to_string(levels));
+  FrameReader(path).object_names(0);  // what JobFiles::create reads besides
+  return std::move(*h);
+}
+
+void check_hierarchy_in_child(const std::string& self, const std::string& path, const std::string& hash, int levels) {
+  const CommandResult r = run_command({self, "--check-hierarchy", path, "--hash", hash, "--levels", std::to_string(levels)},
+                                      std::chrono::seconds(10));
+  if (r.exit_code == 0 && !r.timed_out) return;
+  std::string first = r.err.substr(0, r.err.find('\n'));
+  const std::string prefix = "pd-scheduler: error: ";
+  if (first.rfind(prefix, 0) == 0) first = first.substr(prefix.size());
+  if (r.exit_code == 2 && !first.empty()) throw InputError(first);
+  throw InputError(path + ": the hierarchy file could not be read: " +
+                   (r.failure.empty() ? "its check exited " + std::to_string(r.exit_code) : r.failure) +
+                   (r.exit_code > 128 ? " (killed by signal " + std::to_string(r.exit_code - 128) + ")" : ""));
+}
+
 void JobFiles::write_frame(JobFile& f, int level, int t, const FrameData& data) { write_into(*f.writer, level, t, data); }
 
 JobFile& JobFiles::create(int64_t job, const std::string& scene_text, int frames, int levels, const std::string& hash,
@@ -57,13 +85,8 @@ JobFile& JobFiles::create(int64_t job, const std::string& scene_text, int frames
     out.close();
     if (!out) throw InputError(f.hierarchy_path + ": cannot write the hierarchy file");
   }
-  std::optional<SceneHierarchy> h = read_hierarchy(f.hierarchy_path);
-  if (!h) throw InputError(f.hierarchy_path + ": /hierarchy@hash: the hierarchy task's file has no hierarchy");
-  if (h->hash != hash)
-    throw InputError(f.hierarchy_path + ": /hierarchy@hash: " + h->hash + ", the report says " + hash);
-  if (h->num_levels() != levels)
-    throw InputError(f.hierarchy_path + ": the hierarchy has " + std::to_string(h->num_levels()) +
-                     " levels, the job asks for " + std::to_string(levels));
+  if (!checker_.empty()) check_hierarchy_in_child(checker_, f.hierarchy_path, hash, levels);
+  const SceneHierarchy h = check_hierarchy_file(f.hierarchy_path, hash, levels);
   const std::vector<std::string> names = FrameReader(f.hierarchy_path).object_names(0);
   const std::string building = f.path + ".tmp";
   files_.erase(job);  // closes the file a rebuild replaces
@@ -71,8 +94,8 @@ JobFile& JobFiles::create(int64_t job, const std::string& scene_text, int frames
   // Frames are durable in the task store; the file is flushed when read (fetch), when its job ends
   // and when the scheduler stops (two flushes per frame were the farm's bottleneck).
   f.writer->set_flush_each_frame(false);
-  write_hierarchy(building, *h, names);
-  add_hierarchy_levels(*f.writer, *h, names);
+  write_hierarchy(building, h, names);
+  add_hierarchy_levels(*f.writer, h, names);
   for (std::size_t i = 0; i < count; ++i) {
     const StoredFrame s = frame(i);
     write_into(*f.writer, s.first.level, s.first.frame, s.second);
@@ -84,7 +107,7 @@ JobFile& JobFiles::create(int64_t job, const std::string& scene_text, int frames
   if (ec) throw InputError(f.path + ": cannot replace the job file: " + ec.message());
   f.hierarchy_hash = hash;
   f.hierarchy_blob = blob;
-  for (const SceneLevel& lv : h->levels) {
+  for (const SceneLevel& lv : h.levels) {
     f.vertices.push_back(static_cast<int>(lv.rest.V.rows()));
     f.objects.push_back(static_cast<int>(lv.vertex_offsets.size()) - 1);
   }

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "hierarchy/scene_hierarchy.h"
 #include "store/frame_store.h"
 #include "store/task_store.h"
 
@@ -34,13 +35,26 @@ struct JobFile {
 // A frame the task store holds, to write into a job file being built.
 using StoredFrame = std::pair<FrameKey, FrameData>;
 
+// The hierarchy file at `path` as a hierarchy task sent it: readable, with the hierarchy hash `hash`
+// and `levels` levels. Returns it; InputError naming the file otherwise. It parses bytes a worker
+// sent with HDF5, which some crafted files crash (fuzz/known_hdf5_bugs): the scheduler runs it in a
+// child process first (check_hierarchy_in_child), and only then in its own.
+SceneHierarchy check_hierarchy_file(const std::string& path, const std::string& hash, int levels);
+
+// check_hierarchy_file in a child process (this program run again with --check-hierarchy, bounded in
+// time and memory): InputError with its message when it refuses the file, or saying how it ended
+// when it crashed or ran out of time. `self`: this program's path (/proc/self/exe).
+void check_hierarchy_in_child(const std::string& self, const std::string& path, const std::string& hash, int levels);
+
 // InputError when a frame's statistics cannot go into a job file (an empty name, one with '/',
 // "center_of_mass", or a name twice): checked before the store records the frame.
 void check_frame_stats(const std::vector<protocol::Stat>& stats);
 
 class JobFiles {
  public:
-  explicit JobFiles(std::string jobs_dir);
+  // checker: this program's path; non-empty, every hierarchy blob is read first in a child process
+  // (check_hierarchy_in_child) before this process parses it.
+  explicit JobFiles(std::string jobs_dir, std::string checker = "");
 
   // Creates the job file from a hierarchy task's result: writes the blob to <job>.hierarchy.h5,
   // reads it back (which checks every operator; InputError when the blob is not a hierarchy of
@@ -70,6 +84,7 @@ class JobFiles {
 
  private:
   std::string dir_;
+  std::string checker_;
   std::map<int64_t, JobFile> files_;
 };
 

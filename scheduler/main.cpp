@@ -3,6 +3,8 @@
 // keys, scheduler/security.h), prints the bound endpoints as one JSON line on stdout (so a script or
 // `pd run` can use port 0), and logs one JSON line per event on stderr.
 // `pd-scheduler --generate-keys PREFIX` only writes a key pair (farm/curve.h) and exits.
+#include <sys/resource.h>
+
 #include <atomic>
 #include <csignal>
 #include <memory>
@@ -13,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "farm/curve.h"
+#include "scheduler/job_files.h"
 #include "scheduler/scheduler.h"
 #include "scheduler/security.h"
 #include "util/input_error.h"
@@ -23,6 +26,21 @@ namespace {
 std::atomic<bool> g_stop{false};
 
 void on_signal(int) { g_stop = true; }
+
+// --check-hierarchy: exit 0 when the file is a hierarchy with that hash and level count, 2 with the
+// reason on stderr when not. Its memory is capped first (4 GiB of address space): a crafted file
+// that makes HDF5 allocate without end fails here, not in the scheduler.
+int check_hierarchy(const std::string& file, const std::string& hash, int levels) {
+  const rlimit cap = {rlim_t{4} << 30, rlim_t{4} << 30};
+  setrlimit(RLIMIT_AS, &cap);
+  try {
+    pd::scheduler::check_hierarchy_file(file, hash, levels);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "pd-scheduler: error: %s\n", e.what());
+    return 2;
+  }
+}
 
 }  // namespace
 
@@ -66,6 +84,14 @@ int main(int argc, char** argv) {
                  "Seconds a Slurm worker waits for a silent scheduler before it exits (pd-worker --scheduler-timeout)")
       ->check(CLI::Range(1.0, 1e7))
       ->capture_default_str();
+  // The scheduler runs itself with these to read a hierarchy file a worker sent (job_files.h,
+  // check_hierarchy_in_child); not for users.
+  std::string check_file, check_hash;
+  int check_levels = 0;
+  app.add_option("--check-hierarchy", check_file, "Internal: check this hierarchy file, print why not, exit")
+      ->group("");
+  app.add_option("--hash", check_hash, "Internal: with --check-hierarchy")->group("");
+  app.add_option("--levels", check_levels, "Internal: with --check-hierarchy")->group("");
   int parent = 0;
   app.add_option("--exit-with-parent", parent, "Stop as on SIGTERM when process PID, the one that started this one, ends, however it ends (pd run and the tests pass their own pid)")
       ->check(CLI::Range(1, 1 << 30));
@@ -73,6 +99,7 @@ int main(int argc, char** argv) {
                  "Write a new key pair to PREFIX.key (mode 0600) and PREFIX.pub, then exit");
   try {
     app.parse(argc, argv);
+    if (!check_file.empty()) return check_hierarchy(check_file, check_hash, check_levels);
     if (generate_prefix.empty() && options.dir.empty()) throw CLI::RequiredError("--dir");
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);

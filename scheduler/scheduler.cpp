@@ -41,7 +41,9 @@ Scheduler::Scheduler(const SchedulerOptions& options)
       ctx_(1),
       workers_(ctx_, zmq::socket_type::router),
       clients_(ctx_, zmq::socket_type::router),
-      files_(options.dir + "/jobs"),
+      // Hierarchy files come from workers: HDF5 reads them first in a child, where a crafted file can
+      // crash it (fuzz/known_hdf5_bugs) without taking the farm down.
+      files_(options.dir + "/jobs", "/proc/self/exe"),
       heartbeat_(options.heartbeat_ms) {
   std::filesystem::create_directories(options.dir);
   store_ = std::make_unique<TaskStore>(options.dir + "/farm.sqlite");

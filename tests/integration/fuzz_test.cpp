@@ -32,6 +32,7 @@
 #include "protocol/protocol.h"
 #include "store/frame_store.h"
 #include "support/farm.h"
+#include "support/test_paths.h"
 #include "support/fuzz_messages.h"
 #include "support/process.h"
 #include "util/process_setup.h"
@@ -920,5 +921,44 @@ TEST_F(FarmTest, OutOfOrderAndForgedReportsAreRefusedNamingTheReasonAndTheSchedu
   EXPECT_EQ(test::parse_json(workers).at("workers").size(), 2u) << workers.out;
 }
 
+// A worker sends, as its hierarchy, a file that crashes HDF5's reader (SIGSEGV in H5F__accum_read,
+// fuzz/known_hdf5_bugs) under the genuine hash: the scheduler reads worker files in a child process
+// first, so the child dies, the attempt fails naming the signal, and the scheduler goes on serving.
+TEST_F(FarmTest, AHierarchyFileThatCrashesHdf5FailsItsAttemptAndNotTheScheduler) {
+  test::FarmOptions options;
+  options.workers = 0;
+  options.heartbeat_ms = 5000;
+  test::Farm& farm = start_farm(options, "fuzz_hdf5_crash");
+  const std::string scene = test::scene_path("cube-trampoline.json"), hierarchy = farm.dir() + "/hierarchy.h5";
+  const test::RunResult built =
+      test::run({PD_BINARY, "hierarchy", scene, "--out", hierarchy, "--json"}, test::kCommand);
+  ASSERT_EQ(built.exit_code, 0) << built.describe();
+  const json h = test::parse_json(built);
+  std::vector<int> vertices;
+  for (const json& l : h.at("levels")) vertices.push_back(l.at("vertices"));
+  zmq::context_t ctx(1);
+  HandPeer p(ctx, farm.workers_endpoint(), "crash-p");
+  farm::send_parts(p.socket(), protocol::encode(protocol::Hello{"crash-p", "fuzz", 1, "fuzzhost", "", blas_kernel_in_use()}));
+  ASSERT_TRUE(p.wait_for<protocol::Welcome>(10s)) << "no welcome";
+  const int64_t job = test::submit(farm, {scene, "--frames", "4"});
+  const std::optional<protocol::AssignTask> task = p.wait_for<protocol::AssignTask>(10s);
+  ASSERT_TRUE(task && task->kind == protocol::TaskKind::hierarchy);
+  const std::string crafted =
+      test::read_file_text(test::source_dir() + "/fuzz/known_hdf5_bugs/frame_file/h5f_accum_read_segv.h5");
+  farm::send_parts(p.socket(), protocol::encode(protocol::HierarchyDone{task->attempt, task->task, h.at("hash"),
+                                                                         static_cast<int>(vertices.size()), vertices,
+                                                                         crafted}));
+  json status;
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  do {
+    std::this_thread::sleep_for(100ms);
+    status = test::job_status(farm, job);  // the scheduler answers: it is alive
+  } while (status.at("state") != "failed" && std::chrono::steady_clock::now() < deadline);
+  ASSERT_EQ(status.at("state"), "failed") << status.dump();
+  EXPECT_NE(status.at("reason").get<std::string>().find("killed by signal 11"), std::string::npos) << status.dump();
+  EXPECT_TRUE(farm.scheduler().running());
+}
+
 }  // namespace
 }  // namespace pd
+
