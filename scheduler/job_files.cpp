@@ -1,5 +1,6 @@
 #include "scheduler/job_files.h"
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -7,6 +8,7 @@
 #include <set>
 
 #include "store/hierarchy_store.h"
+#include "util/fnv1a.h"
 #include "util/input_error.h"
 #include "util/subprocess.h"
 
@@ -85,7 +87,15 @@ JobFile& JobFiles::create(int64_t job, const std::string& scene_text, int frames
     out.close();
     if (!out) throw InputError(f.hierarchy_path + ": cannot write the hierarchy file");
   }
-  if (!checker_.empty()) check_hierarchy_in_child(checker_, f.hierarchy_path, hash, levels);
+  if (!checker_.empty()) {
+    Fnv1a digest;
+    digest.bytes(blob.data(), blob.size());
+    const auto [lo, hi] = checked_.equal_range(digest.value());
+    if (std::none_of(lo, hi, [&](const auto& c) { return c.second == blob; })) {
+      check_hierarchy_in_child(checker_, f.hierarchy_path, hash, levels);
+      checked_.emplace(digest.value(), blob);
+    }
+  }
   const SceneHierarchy h = check_hierarchy_file(f.hierarchy_path, hash, levels);
   const std::vector<std::string> names = FrameReader(f.hierarchy_path).object_names(0);
   const std::string building = f.path + ".tmp";

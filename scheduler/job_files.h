@@ -85,6 +85,11 @@ class JobFiles {
  private:
   std::string dir_;
   std::string checker_;
+  // Hierarchy files the child check passed, by their bytes' FNV-1a: a file equal byte for byte to
+  // one of them parses the same and is not checked again (jobs of one scene share their hierarchy;
+  // the check costs a process start, 24 ms here, 124 ms in the sanitizer build). Equality is of the
+  // bytes, not the digest alone, which is not collision-proof.
+  std::multimap<std::uint64_t, std::string> checked_;
   std::map<int64_t, JobFile> files_;
 };
 
