@@ -842,6 +842,20 @@ void send_tcp_garbage(const std::string& endpoint, uint64_t seed) {
   garbage.closed_by_peer(1000);
 }
 
+// A genuine hierarchy_done for `scene` (attempt and task 0, to be filled in): the hierarchy `pd
+// hierarchy` builds into the farm's folder, with its hash, levels and vertex counts.
+protocol::HierarchyDone genuine_hierarchy(const test::Farm& farm, const std::string& scene) {
+  const std::string hierarchy = farm.dir() + "/hierarchy.h5";
+  const test::RunResult built =
+      test::run({PD_BINARY, "hierarchy", scene, "--out", hierarchy, "--json"}, test::kCommand);
+  EXPECT_EQ(built.exit_code, 0) << built.describe();
+  const json h = test::parse_json(built);
+  std::vector<int> vertices;
+  for (const json& l : h.at("levels")) vertices.push_back(l.at("vertices"));
+  return protocol::HierarchyDone{0, 0, h.at("hash"), static_cast<int>(vertices.size()), vertices,
+                                 test::read_file_text(hierarchy)};
+}
+
 // The out-of-order cases, each refused naming its reason, on a farm with no worker of its own: two
 // hand-driven peers, one given the job's real tasks (it returns a real hierarchy, built with `pd
 // hierarchy`), one claiming them. Then the clients socket, and ZMTP frames libzmq would not send.
@@ -850,15 +864,10 @@ TEST_F(FarmTest, OutOfOrderAndForgedReportsAreRefusedNamingTheReasonAndTheSchedu
   options.workers = 0;
   options.heartbeat_ms = 5000;  // the hand-driven peers are silent between cases: 15 s before they are lost
   test::Farm& farm = start_farm(options, "fuzz_order");
-  const std::string scene = test::scene_path("cube-trampoline.json"), hierarchy = farm.dir() + "/hierarchy.h5";
-  const test::RunResult built =
-      test::run({PD_BINARY, "hierarchy", scene, "--out", hierarchy, "--json"}, test::kCommand);
-  ASSERT_EQ(built.exit_code, 0) << built.describe();
-  const json h = test::parse_json(built);
-  std::vector<int> vertices;
-  for (const json& l : h.at("levels")) vertices.push_back(l.at("vertices"));
+  const std::string scene = test::scene_path("cube-trampoline.json");
+  protocol::HierarchyDone done = genuine_hierarchy(farm, scene);
+  const std::vector<int> vertices = done.vertices;
   ASSERT_EQ(vertices.size(), 3u);
-  protocol::HierarchyDone done{0, 0, h.at("hash"), 3, vertices, test::read_file_text(hierarchy)};
 
   zmq::context_t ctx(1);
   Cases cases;
@@ -929,13 +938,9 @@ TEST_F(FarmTest, AHierarchyFileThatCrashesHdf5FailsItsAttemptAndNotTheScheduler)
   options.workers = 0;
   options.heartbeat_ms = 5000;
   test::Farm& farm = start_farm(options, "fuzz_hdf5_crash");
-  const std::string scene = test::scene_path("cube-trampoline.json"), hierarchy = farm.dir() + "/hierarchy.h5";
-  const test::RunResult built =
-      test::run({PD_BINARY, "hierarchy", scene, "--out", hierarchy, "--json"}, test::kCommand);
-  ASSERT_EQ(built.exit_code, 0) << built.describe();
-  const json h = test::parse_json(built);
-  std::vector<int> vertices;
-  for (const json& l : h.at("levels")) vertices.push_back(l.at("vertices"));
+  const std::string scene = test::scene_path("cube-trampoline.json");
+  protocol::HierarchyDone crafted = genuine_hierarchy(farm, scene);
+  ASSERT_FALSE(crafted.vertices.empty());
   zmq::context_t ctx(1);
   HandPeer p(ctx, farm.workers_endpoint(), "crash-p");
   farm::send_parts(p.socket(), protocol::encode(protocol::Hello{"crash-p", "fuzz", 1, "fuzzhost", "", blas_kernel_in_use()}));
@@ -943,11 +948,10 @@ TEST_F(FarmTest, AHierarchyFileThatCrashesHdf5FailsItsAttemptAndNotTheScheduler)
   const int64_t job = test::submit(farm, {scene, "--frames", "4"});
   const std::optional<protocol::AssignTask> task = p.wait_for<protocol::AssignTask>(10s);
   ASSERT_TRUE(task && task->kind == protocol::TaskKind::hierarchy);
-  const std::string crafted =
-      test::read_file_text(test::source_dir() + "/fuzz/known_hdf5_bugs/frame_file/h5f_accum_read_segv.h5");
-  farm::send_parts(p.socket(), protocol::encode(protocol::HierarchyDone{task->attempt, task->task, h.at("hash"),
-                                                                         static_cast<int>(vertices.size()), vertices,
-                                                                         crafted}));
+  crafted.attempt = task->attempt;
+  crafted.task = task->task;
+  crafted.blob = test::read_file_text(test::source_dir() + "/fuzz/known_hdf5_bugs/frame_file/h5f_accum_read_segv.h5");
+  farm::send_parts(p.socket(), protocol::encode(crafted));
   json status;
   const auto deadline = std::chrono::steady_clock::now() + 30s;
   do {
