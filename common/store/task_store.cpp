@@ -11,39 +11,23 @@
 #include <nlohmann/json.hpp>
 
 #include "store/sqlite_db.h"
+#include "store/task_store_internal.h"
 
 namespace pd {
 namespace {
 
-using protocol::JobState;
 using protocol::TaskKind;
-using protocol::TaskState;
-using protocol::to_string;
-using sqlite::Db;
-using sqlite::Statement;
-using sqlite::Transaction;
-using namespace task_store_detail;  // the schema, row readers and dependency walk (store/sqlite_db.h)
-using Mode = Transaction::Mode;
+// The helpers and names task_store_frames.cpp shares (Db, Statement, the schema's row readers,
+// job_info, promote, ...): store/task_store_internal.h.
+using namespace task_store_internal;
 
-double now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 
-std::string str(int64_t v) { return std::to_string(v); }
 
 bool job_ended(JobState s) { return s == JobState::done || s == JobState::failed || s == JobState::cancelled; }
 
 // An id of "none" (0) is stored as NULL.
 std::optional<int64_t> id_or_null(int64_t id) { return id == 0 ? std::nullopt : std::optional<int64_t>(id); }
 
-// Runs one statement that returns no row with the arguments bound to ?1, ?2, ...; returns the rows
-// it changed.
-template <typename... Args>
-int run_sql(Db& db, const char* sql, const Args&... args) {
-  Statement st(db, sql);
-  st.bind_all(args...).run();
-  return db.changes();
-}
 
 // One UPDATE of row `id` (bound to ?1, the arguments to ?2, ...) as a transaction of its own; StoreError
 // "no <noun> <id>" when the row does not exist.
@@ -54,20 +38,7 @@ void update_row(Db& db, const char* label, const char* noun, const char* sql, in
   tx.commit();
 }
 
-sqlite::Blob doubles_blob(const std::vector<double>& v) {
-  sqlite::Blob b;
-  b.bytes.resize(v.size() * sizeof(double));
-  if (!v.empty()) std::memcpy(b.bytes.data(), v.data(), b.bytes.size());
-  return b;
-}
 
-std::vector<double> blob_doubles(const Db& db, const std::string& bytes, const char* what) {
-  if (bytes.size() % sizeof(double) != 0)
-    db.fail_with(std::string("frame ") + what + ": " + std::to_string(bytes.size()) + " bytes, not whole float64s");
-  std::vector<double> v(bytes.size() / sizeof(double));
-  if (!v.empty()) std::memcpy(v.data(), bytes.data(), bytes.size());
-  return v;
-}
 
 // Failed attempts count against tasks and workers until the job is requeued (their outcome then
 // becomes kRequeuedFailure).
@@ -76,21 +47,7 @@ constexpr char kRequeuedFailure[] = "failed, requeued";
 // An attempt whose vertical start was refused (continue_horizontally): not a failure of the worker.
 constexpr char kVerticalRefused[] = "vertical start refused";
 
-// What most methods need of a job, without reading its scene.
-struct JobInfo {
-  JobState state = JobState::queued;
-  int frames = 0, levels = 0;
-};
 
-JobInfo job_info(Db& db, int64_t job) {
-  Statement st(db, "SELECT state, frames, levels FROM jobs WHERE id = ?1");
-  if (!st.bind_all(job).step()) db.fail_with("no job " + str(job));
-  JobInfo info;
-  info.state = job_state_from(db, st.column_text(0), job);
-  info.frames = st.column_int(1);
-  info.levels = st.column_int(2);
-  return info;
-}
 
 TaskRow read_task(Db& db, int64_t task) {
   Statement st(db, std::string("SELECT ") + kTaskColumns + " FROM tasks t WHERE t.id = ?1");
@@ -106,29 +63,7 @@ void require_worker(Db& db, int64_t worker) {
   require_row(db, "SELECT 1 FROM workers WHERE id = ?1", "worker", worker);
 }
 
-// A frame of the job: level in [0, levels), frame t in [0, N].
-void check_frame(const Db& db, const char* what, int64_t job, const JobInfo& info, const FrameKey& key) {
-  if (key.level < 0 || key.level >= info.levels)
-    db.fail_with(std::string(what) + ": job " + str(job) + ": level " + str(key.level) + " outside 0.." +
-                 str(info.levels - 1));
-  if (key.frame < 0 || key.frame > info.frames)
-    db.fail_with(std::string(what) + ": job " + str(job) + ": frame " + str(key.frame) + " outside 0.." +
-                 str(info.frames));
-}
 
-// The scheduler's rule (header comment): waiting -> ready once every task it waits after is done and
-// every frame it needs is stored. Only the given job's tasks are looked at.
-void promote(Db& db, int64_t job) {
-  run_sql(db, R"sql(
-    UPDATE tasks SET state = ?2 WHERE job_id = ?1 AND state = ?3
-      AND NOT EXISTS (SELECT 1 FROM task_after a JOIN tasks d ON d.id = a.after_task_id
-                      WHERE a.task_id = tasks.id AND d.state <> ?4)
-      AND NOT EXISTS (SELECT 1 FROM task_frames f WHERE f.task_id = tasks.id AND f.guide = 0 AND NOT EXISTS
-                      (SELECT 1 FROM frames s WHERE s.job_id = ?1 AND s.level = f.level AND s.frame = f.frame))
-      AND NOT EXISTS (SELECT 1 FROM task_frames f WHERE f.task_id = tasks.id AND f.guide = 1 AND NOT EXISTS
-                      (SELECT 1 FROM guide_frames g WHERE g.job_id = ?1 AND g.level = f.level AND g.frame = f.frame)))sql",
-          job, to_string(TaskState::ready), to_string(TaskState::waiting), to_string(TaskState::done));
-}
 
 // Closes the task's open attempt, if any.
 void close_attempts(Db& db, int64_t task, const std::string& outcome, const std::string& message) {
@@ -241,18 +176,6 @@ TaskRow close_refused_start(Db& db, const char* what, int64_t task, int64_t atte
   return t;
 }
 
-// The frames of `level` in [first, last] stored in `table` (frames or guide_frames, this file's names),
-// sorted.
-std::vector<int> frames_between(Db& db, const char* what, const char* table, int64_t job, int level, int first,
-                                int last) {
-  check_frame(db, what, job, job_info(db, job), FrameKey{level, 0});
-  Statement st(db, std::string("SELECT frame FROM ") + table +
-                       " WHERE job_id = ?1 AND level = ?2 AND frame BETWEEN ?3 AND ?4 ORDER BY frame");
-  st.bind_all(job, level, first, last);
-  std::vector<int> frames;
-  while (st.step()) frames.push_back(st.column_int(0));
-  return frames;
-}
 
 // A subset whose vertical start went away (continue_horizontally, move_seam) has no seam at its first
 // frame to stitch: its guides become 0, and the stitch task of its seam, which waits for those guide
@@ -322,31 +245,6 @@ void fail_for_good(Db& db, const TaskRow& t, const std::string& reason) {
 
 }  // namespace
 
-struct TaskStore::Impl {
-  explicit Impl(const std::string& path) : db(path) {}
-
-  // Runs body() as one transaction labelled with the method's name and returns its result; an
-  // exception rolls it back. Writers take the write lock first (see the top of this file).
-  template <typename Body>
-  auto write(const char* label, Body&& body) { return run(Mode::immediate, label, body); }
-  template <typename Body>
-  auto read(const char* label, Body&& body) { return run(Mode::deferred, label, body); }
-
-  template <typename Body>
-  auto run(Mode mode, const char* label, Body& body) -> decltype(body()) {
-    Transaction tx(db, mode, label);
-    if constexpr (std::is_void_v<decltype(body())>) {
-      body();
-      tx.commit();
-    } else {
-      auto result = body();
-      tx.commit();
-      return result;
-    }
-  }
-
-  Db db;
-};
 
 TaskStore::TaskStore(const std::string& path) : impl_(std::make_unique<Impl>(path)) {
   Db& db = impl_->db;
@@ -695,133 +593,6 @@ void TaskStore::cancel_job(int64_t job) {
             to_string(TaskState::cancelled), to_string(TaskState::waiting), to_string(TaskState::ready),
             to_string(TaskState::running));
     run_sql(db, "UPDATE jobs SET state = ?2, finished = ?3 WHERE id = ?1", job, to_string(JobState::cancelled), now());
-  });
-}
-
-void TaskStore::record_frame(int64_t job, const FrameKey& key, const FrameData& data) {
-  Db& db = impl_->db;
-  impl_->write("record_frame", [&] {
-    check_frame(db, "record_frame", job, job_info(db, job), key);
-    nlohmann::json names = nlohmann::json::array();
-    std::vector<double> values;
-    for (const auto& [name, value] : data.stats) {
-      names.push_back(name);
-      values.push_back(value);
-    }
-    run_sql(db, "INSERT INTO frames(job_id, level, frame, kappa, positions, stat_names, stat_values, center_of_mass) "
-            "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8) ON CONFLICT(job_id, level, frame) DO UPDATE SET "
-            "kappa = excluded.kappa, positions = excluded.positions, stat_names = excluded.stat_names, "
-            "stat_values = excluded.stat_values, center_of_mass = excluded.center_of_mass",
-            job, key.level, key.frame, data.kappa, doubles_blob(data.positions), names.dump(), doubles_blob(values),
-            doubles_blob(data.center_of_mass));
-    promote(db, job);
-  });
-}
-
-std::optional<FrameData> TaskStore::frame_data(int64_t job, const FrameKey& key) const {
-  Db& db = impl_->db;
-  return impl_->read("frame_data", [&]() -> std::optional<FrameData> {
-    check_frame(db, "frame_data", job, job_info(db, job), key);
-    Statement st(db, "SELECT kappa, positions, stat_names, stat_values, center_of_mass FROM frames "
-                     "WHERE job_id = ?1 AND level = ?2 AND frame = ?3");
-    if (!st.bind_all(job, key.level, key.frame).step()) return std::nullopt;
-    FrameData d;
-    d.kappa = st.column_optional_double(0);
-    d.positions = blob_doubles(db, st.column_blob(1), "positions");
-    const std::vector<double> values = blob_doubles(db, st.column_blob(3), "stat_values");
-    nlohmann::json names;
-    try {
-      names = nlohmann::json::parse(st.column_text(2));
-    } catch (const nlohmann::json::exception& e) {
-      db.fail_with("job " + str(job) + ": frame stat_names: " + e.what());
-    }
-    if (!names.is_array() || names.size() != values.size())
-      db.fail_with("job " + str(job) + ": frame stat_names: not an array of one name per value");
-    for (std::size_t i = 0; i < values.size(); ++i) {
-      if (!names[i].is_string()) db.fail_with("job " + str(job) + ": frame stat_names: not a string");
-      d.stats.emplace_back(names[i].get<std::string>(), values[i]);
-    }
-    d.center_of_mass = blob_doubles(db, st.column_blob(4), "center_of_mass");
-    return d;
-  });
-}
-
-std::vector<FrameKey> TaskStore::frame_keys(int64_t job) const {
-  Db& db = impl_->db;
-  return impl_->read("frame_keys", [&] {
-    job_info(db, job);
-    Statement st(db, "SELECT level, frame FROM frames WHERE job_id = ?1 ORDER BY level, frame");
-    st.bind_all(job);
-    std::vector<FrameKey> keys;
-    while (st.step()) keys.push_back(FrameKey{st.column_int(0), st.column_int(1)});
-    return keys;
-  });
-}
-
-bool TaskStore::frame_stored(int64_t job, const FrameKey& key) const {
-  Db& db = impl_->db;
-  return impl_->read("frame_stored", [&] {
-    check_frame(db, "frame_stored", job, job_info(db, job), key);
-    Statement st(db, "SELECT 1 FROM frames WHERE job_id = ?1 AND level = ?2 AND frame = ?3");
-    return st.bind_all(job, key.level, key.frame).step();
-  });
-}
-
-std::optional<double> TaskStore::frame_kappa(int64_t job, const FrameKey& key) const {
-  Db& db = impl_->db;
-  return impl_->read("frame_kappa", [&] {
-    check_frame(db, "frame_kappa", job, job_info(db, job), key);
-    Statement st(db, "SELECT kappa FROM frames WHERE job_id = ?1 AND level = ?2 AND frame = ?3");
-    return st.bind_all(job, key.level, key.frame).step() ? st.column_optional_double(0) : std::nullopt;
-  });
-}
-
-std::vector<int> TaskStore::frames_stored(int64_t job) const {
-  Db& db = impl_->db;
-  return impl_->read("frames_stored", [&] {
-    const JobInfo info = job_info(db, job);
-    std::vector<int> counts(static_cast<size_t>(info.levels), 0);
-    Statement st(db, "SELECT level, COUNT(*) FROM frames WHERE job_id = ?1 GROUP BY level ORDER BY level");
-    st.bind_all(job);
-    while (st.step()) {
-      const int level = st.column_int(0);
-      if (level < 0 || level >= info.levels) db.fail_with("job " + str(job) + ": stored frame of level " + str(level));
-      counts[static_cast<size_t>(level)] = st.column_int(1);
-    }
-    return counts;
-  });
-}
-
-std::vector<int> TaskStore::stored_frames(int64_t job, int level, int first, int last) const {
-  Db& db = impl_->db;
-  return impl_->read("stored_frames", [&] { return frames_between(db, "stored_frames", "frames", job, level, first, last); });
-}
-
-void TaskStore::record_guide_frame(int64_t job, const FrameKey& key, const std::vector<double>& positions) {
-  Db& db = impl_->db;
-  impl_->write("record_guide_frame", [&] {
-    check_frame(db, "record_guide_frame", job, job_info(db, job), key);
-    run_sql(db, "INSERT INTO guide_frames(job_id, level, frame, positions) VALUES(?1, ?2, ?3, ?4) "
-            "ON CONFLICT(job_id, level, frame) DO UPDATE SET positions = excluded.positions",
-            job, key.level, key.frame, doubles_blob(positions));
-    promote(db, job);
-  });
-}
-
-std::optional<std::vector<double>> TaskStore::guide_frame(int64_t job, const FrameKey& key) const {
-  Db& db = impl_->db;
-  return impl_->read("guide_frame", [&]() -> std::optional<std::vector<double>> {
-    check_frame(db, "guide_frame", job, job_info(db, job), key);
-    Statement st(db, "SELECT positions FROM guide_frames WHERE job_id = ?1 AND level = ?2 AND frame = ?3");
-    if (!st.bind_all(job, key.level, key.frame).step()) return std::nullopt;
-    return blob_doubles(db, st.column_blob(0), "positions");
-  });
-}
-
-std::vector<int> TaskStore::stored_guide_frames(int64_t job, int level, int first, int last) const {
-  Db& db = impl_->db;
-  return impl_->read("stored_guide_frames", [&] {
-    return frames_between(db, "stored_guide_frames", "guide_frames", job, level, first, last);
   });
 }
 
