@@ -238,6 +238,9 @@ class Shard {
     if (w.busy && m.attempt == w.run.attempt) w.run.below.insert(m.frame);
   }
 
+  // A simulated stitch steps on the level below alone: its guide frames only cost the transfer.
+  void on(SimWorker&, protocol::GuideFrame&, Clock::time_point) {}
+
   void on(SimWorker& w, protocol::CancelTask& m, Clock::time_point now) {
     if (!w.busy || m.attempt != w.run.attempt) return;
     ++tally_.cancels;

@@ -232,32 +232,9 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
       a.own_start = as_vector(f->writer->read_frame(t.level, a.start));
       a.own_kappa = store_->frame_kappa(t.job, {t.level, a.start});
     }
-    // A stitch task: the later subset's guide frames, all of them (the ramp counts from the seam),
-    // in one message: its size is checked before the frames are read (a fine level and a wide
-    // stitch could pass the message limit), and the task fails with the reason if it is over.
-    if (t.stitch) {
-      const double bytes = double(t.last - t.first + 2) * 3.0 * f->vertices[static_cast<std::size_t>(t.level)] * 8.0;
-      if (bytes > 0.9 * double(protocol::kMaxMessageBytes)) {
-        const std::string why = "the stitch (" + std::to_string(t.first) + ", " + std::to_string(t.last) + "] of level " +
-                                std::to_string(t.level) + " needs " + std::to_string(static_cast<int64_t>(bytes)) +
-                                " bytes of guide frames in one assignment, over the message limit of " +
-                                std::to_string(protocol::kMaxMessageBytes) + ": submit with a smaller --stitch";
-        store_->fail_task(t.id, why);
-        event("task_failed", t.job, t.id, s.worker, why);
-        event("job_failed", t.job, 0, 0, store_->job(t.job).reason);
-        cancel_attempts_of_job(t.job, "job failed");
-        return false;
-      }
-    }
-    for (int g = t.first + 1; t.stitch && g <= t.last; ++g) {
-      std::optional<std::vector<double>> guide = store_->guide_frame(t.job, {t.level, g});
-      if (!guide) {  // cannot happen: the task was ready, so its guide frames were stored
-        store_->release_task(t.id, "guide frame missing");
-        event("dispatch_error", t.job, t.id, s.worker, "stitch task ready without its guide frame " + std::to_string(g));
-        return false;
-      }
-      a.guides.push_back(std::move(*guide));
-    }
+    // A stitch task: its guide frames follow as GuideFrame messages as the later subset stores them
+    // (top_up_feed, feed_guide_frame), so it runs one step behind the later subset instead of after it.
+    a.stitch = t.stitch;
   }
   send_worker(identity, protocol::encode(a));
   if (a.hierarchy_blob) s.hierarchies.insert(a.hierarchy_hash);
@@ -265,6 +242,7 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
   s.task = t.id;
   s.job = t.job;
   s.fed.clear();
+  s.fed_guides.clear();
   s.progress = a.start;
   event("task_assigned", t.job, t.id, s.worker,
         "attempt " + std::to_string(claim.attempt) + ": " +
@@ -322,25 +300,39 @@ void Scheduler::top_up_feed(const std::string& identity, Session& s) {
   if (s.attempt == 0 || s.draining) return;
   const TaskRow task = store_->task(s.task);
   if (task.kind != protocol::TaskKind::level || task.level < 1) return;
-  const std::optional<farm::FrameRange> range = farm::fed_frames(as_new_task(task));
   JobFile* f = files_.find(task.job);
-  if (!range || !f) return;
+  if (!f) return;
   // Step progress -> progress + 1 reads frames progress - 1 and progress of the level below, and
   // nothing before them is asked for again: a continuation from frame 10 000 is not sent frames 0..9 998.
-  const int first = std::max(range->first, s.progress - 1);
-  const int last = std::min(range->last, s.progress + kFeedWindow);
-  if (last < first || std::distance(s.fed.lower_bound(first), s.fed.end()) == last - first + 1)
-    return;  // every frame of the window was sent already
-  for (int t : store_->stored_frames(task.job, range->level, first, last)) {
-    if (s.fed.count(t)) continue;
-    protocol::BelowFrame b;
-    b.attempt = s.attempt;
-    b.task = task.id;
-    b.level = range->level;
-    b.frame = t;
-    b.positions = as_vector(f->writer->read_frame(range->level, t));
-    if (!send_worker(identity, protocol::encode(b))) return;  // the rest on the next top-up, in order
-    s.fed.insert(t);
+  if (const std::optional<farm::FrameRange> range = farm::fed_frames(as_new_task(task))) {
+    const int first = std::max(range->first, s.progress - 1);
+    const int last = std::min(range->last, s.progress + kFeedWindow);
+    if (!(last < first || std::distance(s.fed.lower_bound(first), s.fed.end()) == last - first + 1)) {
+      for (int t : store_->stored_frames(task.job, range->level, first, last)) {
+        if (s.fed.count(t)) continue;
+        protocol::BelowFrame b;
+        b.attempt = s.attempt;
+        b.task = task.id;
+        b.level = range->level;
+        b.frame = t;
+        b.positions = as_vector(f->writer->read_frame(range->level, t));
+        if (!send_worker(identity, protocol::encode(b))) return;  // the rest on the next top-up, in order
+        s.fed.insert(t);
+      }
+    }
+  }
+  if (!task.stitch) return;
+  // A stitch's step progress -> progress + 1 is guided toward guide frame progress + 1.
+  const int first = std::max(task.first + 1, s.progress + 1);
+  const int last = std::min(task.last, s.progress + kFeedWindow);
+  if (last < first) return;
+  for (int g : store_->stored_guide_frames(task.job, task.level, first, last)) {
+    if (s.fed_guides.count(g)) continue;
+    std::optional<std::vector<double>> positions = store_->guide_frame(task.job, {task.level, g});
+    if (!positions) return;  // cannot happen: just listed
+    if (!send_worker(identity, protocol::encode(protocol::GuideFrame{s.attempt, task.id, task.level, g, std::move(*positions)})))
+      return;
+    s.fed_guides.insert(g);
   }
 }
 
@@ -365,7 +357,21 @@ void Scheduler::feed_new_frame(int64_t job, int level, int frame) {
   }
 }
 
-// A refinement task holds its worker while it waits for frames of the level below. When every
+// A guide frame of (job, level) was stored: the running stitch of the same level whose frames hold
+// it gets it now when it is within its window (kFeedWindow), later from top_up_feed.
+void Scheduler::feed_guide_frame(int64_t job, int level, int frame, const std::vector<double>& positions) {
+  for (auto& [identity, s] : sessions_) {
+    if (s.attempt == 0 || s.job != job || s.draining || s.fed_guides.count(frame)) continue;
+    const TaskRow t = store_->task(s.task);
+    if (!t.stitch || t.level != level || frame <= t.first || frame > t.last) continue;
+    if (frame > s.progress + kFeedWindow) continue;
+    if (send_worker(identity, protocol::encode(protocol::GuideFrame{s.attempt, t.id, level, frame, positions})))
+      s.fed_guides.insert(frame);
+  }
+}
+
+// A refinement task holds its worker while it waits for frames of the level below (a stitch also for
+// its guide frames). When every
 // worker is held and the task that would produce the awaited frame is ready but has no worker (its
 // own worker was lost, say), nothing can move: the waiting attempt is taken back (cancelled,
 // its task ready again) so that its worker takes the producer. The taken-back task later starts
@@ -377,14 +383,23 @@ void Scheduler::preempt_starved() {
     if (s.attempt == 0 || s.draining) continue;
     const TaskRow t = store_->task(s.task);
     if (t.kind != protocol::TaskKind::level || t.level == 0) continue;
-    // Step progress -> progress + 1 needs frame `progress` of the level below (PD eq. 5).
-    const FrameKey need{t.level - 1, s.progress};
-    if (store_->frame_stored(t.job, need)) continue;
+    // Step progress -> progress + 1 needs frame `progress` of the level below (PD eq. 5); a stitch's
+    // step needs guide frame progress + 1 as well.
+    FrameKey need{t.level - 1, s.progress};
+    bool guide = false;
+    if (store_->frame_stored(t.job, need)) {
+      if (!t.stitch || s.progress + 1 > t.last) continue;
+      need = FrameKey{t.level, s.progress + 1};
+      guide = true;
+      if (!store_->stored_guide_frames(t.job, need.level, need.frame, need.frame).empty()) continue;
+    }
     bool producer_waits = false;
     for (const TaskRow& p : store_->tasks(t.job)) {
       // The task that stores the frame (a later subset's guide frames are not the job's: a seam's
-      // stitch task stores those frames of the level, task_graph.h).
-      const std::optional<farm::FrameRange> own = farm::produced_frames(as_new_task(p));
+      // stitch task stores those frames of the level, task_graph.h; the later subset stores them
+      // as guide frames).
+      const std::optional<farm::FrameRange> own =
+          guide ? farm::guide_frames(as_new_task(p)) : farm::produced_frames(as_new_task(p));
       if (own && own->level == need.level && own->first <= need.frame && need.frame <= own->last)
         producer_waits = p.state == protocol::TaskState::ready;
     }
@@ -396,8 +411,8 @@ void Scheduler::preempt_starved() {
     send_worker(identity, protocol::encode(c));
     store_->release_task(s.task, "preempted");
     event("task_preempted", t.job, t.id, s.worker,
-          "attempt " + std::to_string(s.attempt) + " waited for level " + std::to_string(need.level) + " frame " +
-              std::to_string(need.frame));
+          "attempt " + std::to_string(s.attempt) + " waited for level " + std::to_string(need.level) +
+              (guide ? " guide frame " : " frame ") + std::to_string(need.frame));
     s.draining = true;
     return;  // one per turn: the freed worker may be all it takes
   }
@@ -437,6 +452,7 @@ void Scheduler::lose(const std::string& identity, const std::string& why) {
 void Scheduler::end_attempt_of(Session& s) {
   s.attempt = s.task = s.job = 0;
   s.fed.clear();
+  s.fed_guides.clear();
   if (!s.slurm_job.empty()) slurm_->cancel_drained(s.name, unix_now());  // pd workers remove waited for it
 }
 

@@ -70,6 +70,7 @@ struct Session {
   int64_t attempt = 0, task = 0, job = 0;  // the attempt it runs; 0 when idle
   bool draining = false;  // told to cancel; free once a heartbeat says it runs nothing
   std::set<int> fed;      // frames of the level below sent (queued whole) for the running attempt
+  std::set<int> fed_guides;  // guide frames sent to the running stitch (GuideFrame)
   int progress = 0;       // the last frame the running attempt reported (its first frame before any)
   std::string slurm_job;  // Hello.slurm_job: the Slurm job it runs as ("" when not a Slurm worker)
   std::string blas_kernel;  // Hello.blas_kernel
@@ -134,10 +135,12 @@ class Scheduler {
   bool assign(const std::string& identity, Session& s, const Claim& claim);
   // Sends the running refinement attempt of s every stored frame of the level below it will ask for
   // up to s.progress + kFeedWindow that it was not sent yet (on assignment, on each of its frame
-  // reports and heartbeats: a send refused by a full queue is tried again there).
+  // reports and heartbeats: a send refused by a full queue is tried again there), and a running
+  // stitch its stored guide frames in the same window.
   void top_up_feed(const std::string& identity, Session& s);
   void store_guide_frame(const std::string& identity, Session& s, const TaskRow& t, const protocol::FrameReport& m);
   void feed_new_frame(int64_t job, int level, int frame);
+  void feed_guide_frame(int64_t job, int level, int frame, const std::vector<double>& positions);
   // False when the message was not queued: the peer's queue is full (the message is dropped; the
   // peer is not blamed for it) or the peer is gone.
   bool send_worker(const std::string& identity, const protocol::Parts& parts);

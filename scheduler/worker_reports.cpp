@@ -228,6 +228,7 @@ void Scheduler::store_guide_frame(const std::string& identity, Session& s, const
     return;
   }
   store_->record_guide_frame(t.job, {m.level, m.frame}, m.positions);
+  feed_guide_frame(t.job, m.level, m.frame, m.positions);
   // Its solve time is logged (it is in no job file): bench/farm_timeline.py counts the guide frames'
   // solves as the later subset's work.
   double solve = 0.0;
@@ -275,8 +276,13 @@ void Scheduler::on_report(const std::string& identity, protocol::TaskFailed& m) 
   Session* s = attempt_session(identity, m.attempt, m.task, "task_failed");
   if (!s) return;
   const TaskRow t = store_->task(m.task);
+  // A refusal after an earlier attempt of the task made the same start and stored guide frames (its
+  // seam's stitch may be running on them) is not the frames' doing (a worker started with
+  // --refuse-vertical-starts, say): the seam stays, and the attempt fails like any other.
+  const bool started_before =
+      t.guides > 0 && !store_->stored_guide_frames(t.job, t.level, t.first + 1, t.first + t.guides).empty();
   if (m.failure == protocol::FailureKind::vertical_start_refused && t.kind == protocol::TaskKind::level &&
-      t.level >= 1 && t.first >= 1 && !store_->continues_horizontally(t.id)) {
+      t.level >= 1 && t.first >= 1 && !store_->continues_horizontally(t.id) && !started_before) {
     // Deterministic (the same frames upsample the same way on every worker): rather than retrying,
     // the seam moves kSeamMoveFrames later, where the start may be made (a bridge task continues the
     // level horizontally over the frames it leaves), up to kMaxSeamMoves times; then the subset

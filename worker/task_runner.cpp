@@ -90,6 +90,7 @@ void TaskRunner::start(protocol::AssignTask task) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     below_.clear();
+    guides_.clear();
     attempt_ = task.attempt;
     cancelled_ = false;
     finished_ = false;
@@ -101,6 +102,13 @@ void TaskRunner::feed(const protocol::BelowFrame& frame) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (frame.attempt != attempt_ || cancelled_) return;
   below_[frame.frame] = to_vector(frame.positions);
+  below_arrived_.notify_all();
+}
+
+void TaskRunner::feed(const protocol::GuideFrame& frame) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (frame.attempt != attempt_ || cancelled_) return;
+  guides_[frame.frame] = to_vector(frame.positions);
   below_arrived_.notify_all();
 }
 
@@ -153,6 +161,16 @@ Eigen::VectorXd TaskRunner::wait_below(int t) {
   // nothing before t - 1 is asked for again, so an attempt holds a window of frames, not its range.
   below_.erase(below_.begin(), below_.lower_bound(t - 1));
   return below_.at(t);
+}
+
+Eigen::VectorXd TaskRunner::wait_guide(int f) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  below_arrived_.wait(lock, [&] { return cancelled_ || guides_.count(f) != 0; });
+  if (cancelled_) throw Cancelled{};
+  // The stitch asks for each guide frame once, in increasing f (progressive/level_task.cpp).
+  Eigen::VectorXd g = std::move(guides_.at(f));
+  guides_.erase(guides_.begin(), guides_.upper_bound(f));
+  return g;
 }
 
 void TaskRunner::run(protocol::AssignTask task) {
@@ -277,11 +295,12 @@ void TaskRunner::run_level(const protocol::AssignTask& task) {
     inputs.own_kappa = task.own_kappa;
   }
   // A seam's stitch task (farm/task_graph.h): guided toward the later subset's frames first+1..last,
-  // its ramp counted from the seam (its first frame) whichever frame this attempt starts from.
-  if (!task.guides.empty()) {
+  // fed as the later subset solves them, its ramp counted from the seam (its first frame) whichever
+  // frame this attempt starts from.
+  if (task.stitch) {
     inputs.stitch_frames = task.last - task.first + 1;
     inputs.stitch_seam = task.first;
-    inputs.stitch_target = [&task](int f) { return to_vector(task.guides.at(static_cast<std::size_t>(f - task.first - 1))); };
+    inputs.stitch_target = [this](int f) { return wait_guide(f); };
   }
   LevelTaskOptions options;
   options.system.hessian = parse_level_hessian(task.hessian);

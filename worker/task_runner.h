@@ -51,6 +51,8 @@ class TaskRunner {
   void start(protocol::AssignTask task);
   // A frame of the level below for the running attempt (ignored for another attempt).
   void feed(const protocol::BelowFrame& frame);
+  // A guide frame of the running stitch (ignored for another attempt).
+  void feed(const protocol::GuideFrame& frame);
   // Ends the running attempt without further reports; returns at once (the thread ends soon).
   void cancel();
   // The attempt being run, 0 when idle (a finished thread counts as idle once joined by poll()).
@@ -66,6 +68,8 @@ class TaskRunner {
   protocol::Parts run_hierarchy(const protocol::AssignTask& task);  // returns its HierarchyDone
   void run_level(const protocol::AssignTask& task);
   Eigen::VectorXd wait_below(int t);
+  // Blocks until the stitch's guide frame f is fed (or the attempt is cancelled: throws).
+  Eigen::VectorXd wait_guide(int f);
   void post(protocol::Parts parts);
   void finish(protocol::Parts last);
   std::shared_ptr<const SceneHierarchy> hierarchy_for(const protocol::AssignTask& task, const std::string& job_dir);
@@ -79,6 +83,7 @@ class TaskRunner {
   mutable std::mutex mutex_;
   std::condition_variable below_arrived_;
   std::map<int, Eigen::VectorXd> below_;  // frames of level l-1 fed to the running attempt
+  std::map<int, Eigen::VectorXd> guides_;  // a stitch's guide frames fed to the running attempt
   std::vector<protocol::Parts> outbox_;
   int64_t attempt_ = 0;
   bool cancelled_ = false, finished_ = false;

@@ -193,6 +193,7 @@ class Session {
     runner_.start(std::move(m));
   }
   void on(protocol::BelowFrame& m) { runner_.feed(m); }
+  void on(protocol::GuideFrame& m) { runner_.feed(m); }
   void on(protocol::CancelTask& m) {
     if (m.attempt != runner_.attempt()) return;
     log_line(options_, "cancel", "attempt " + std::to_string(m.attempt) + ": " + m.reason);

@@ -77,6 +77,7 @@ class Simulation {
     for (NewTask& t : graph) tasks_.push_back(SimTask{std::move(t)});
     const std::size_t slots = static_cast<std::size_t>(levels_) * (frames_ + 1);
     stored_.assign(slots, -1.0);  // -1: not stored (every stored time is >= 0)
+    guide_stored_.assign(slots, -1.0);
     needed_by_.resize(slots);
     guide_needed_by_.resize(slots);
     step_owners_.resize(slots);
@@ -166,6 +167,11 @@ class Simulation {
       if (below < 0.0) return;  // held, idle, until that frame lands
       begin = std::max(begin, below);
     }
+    if (t.spec.stitch) {  // guided toward the later subset's frame t.next: fed once it is stored
+      const double guide = guide_stored_[slot(t.spec.level, t.next)];
+      if (guide < 0.0) return;
+      begin = std::max(begin, guide);
+    }
     t.in_flight = true;
     push(begin + step_cost(t.spec.level, t.next), i, t.next);
   }
@@ -188,6 +194,8 @@ class Simulation {
       advance(i);
     }
     if (frame <= t.spec.first + t.spec.guides && frame > t.spec.first) {  // a guide frame (task_graph.h)
+      guide_stored_[slot(level, frame)] = now;
+      for (int owner : step_owners_[slot(level, frame - 1)]) advance(owner);  // the stitch it guides
       for (int j : guide_needed_by_[slot(level, frame)]) {
         --tasks_[static_cast<std::size_t>(j)].needs_left;
         promote_if_ready(j);
@@ -253,6 +261,7 @@ class Simulation {
   int64_t seq_ = 0;
   std::vector<SimTask> tasks_;
   std::vector<double> stored_;                // per (level, frame): time stored, -1 while not
+  std::vector<double> guide_stored_;          // per (level, frame): time its guide frame was stored, -1 while not
   std::vector<std::vector<int>> needed_by_;   // per (level, frame): tasks that need it before dispatch
   std::vector<std::vector<int>> guide_needed_by_;  // per (level, frame): tasks that need its guide frame
   std::vector<std::vector<int>> step_owners_;  // per (level >= 1, frame t): the tasks solving t -> t + 1

@@ -18,8 +18,9 @@
 //     (level 0: its frame t's time + step_seconds[0]); while level l-1's frame t is missing the
 //     worker waits, held and idle. The worker is free when frame b is stored.
 //   - a seam's stitch task (task_graph.h, GraphOptions::stitch) is a horizontal continuation (no
-//     vertical start) that needs the later subset's guide frames; those count as stored for it only,
-//     and the level above waits for the stitched frames instead.
+//     vertical start) guided toward the later subset's guide frames: it is ready once the first is
+//     stored, and its frame t + 1 also waits for guide frame t + 1. Guide frames count as stored for
+//     it only; the level above waits for the stitched frames instead.
 // Frames are stored the moment they are solved (transfer and HDF5 writes are not modelled).
 // Deterministic: the same inputs give the same Plan bit for bit.
 #include <vector>

@@ -101,11 +101,14 @@ std::optional<NewTask> stitch_task(int level, int seam, int last, int stitch) {
   NewTask t = level_task(level, seam, seam + w - 1);
   t.stitch = true;
   // Its own level's frames s - 1 and s (a horizontal continuation), the level below as for any task
-  // (s, s + w - 1], and the later subset's frames s + 1 .. s + w - 1 it is guided toward.
+  // (s, s + w - 1], and the first of the later subset's frames s + 1 .. s + w - 1 it is guided toward:
+  // the others are fed as the later subset solves them, so the stitch runs a step behind it. Waiting
+  // for all of them made each level above wait for the later subset's first w frames and the stitch
+  // after them in turn (drape-25k, 30 frames at K = 2: the levels ran in a chain).
   t.needs = subset_needs(level, seam, t.last);
   t.needs.push_back(FrameKey{level, seam - 1});
   t.needs.push_back(FrameKey{level, seam});
-  for (int f = seam + 1; f <= t.last; ++f) t.guide_needs.push_back(FrameKey{level, f});
+  t.guide_needs.push_back(FrameKey{level, seam + 1});
   return t;
 }
 

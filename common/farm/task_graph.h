@@ -21,8 +21,10 @@
 //      horizontally from the level's frames s - 1 and s and solves those frames itself, guided toward
 //      the guide frames with a weight ramped up to land on the later subset by s + w - 1
 //      (progressive/level_task.h, docs/progressive.md "Stitching a seam"), so a seam does not pop.
-//      It needs the level's frames s - 1 and s, the guide frames, and the level below as a subset
-//      (s, s + w - 1] would. The level above reads the stitched frames like any others.
+//      It needs the level's frames s - 1 and s, the first guide frame s + 1, and the level below as a
+//      subset (s, s + w - 1] would; it is then fed the other guide frames as they are stored (the
+//      protocol's GuideFrame), as it is fed the level below. The level above reads the stitched
+//      frames like any others.
 // Every task but the hierarchy task waits for the hierarchy task (after_hierarchy).
 //
 // Frame dependencies (PD eq. 5): step t -> t + 1 of level l >= 1 reads level l - 1's frames t and
@@ -53,8 +55,8 @@ struct GraphOptions {
 // The default stitch width: 16 frames removed every visible seam measured on the flag and drape-gear
 // (docs/progressive.md, "Stitching a seam"), for about 16 of the level's steps per seam.
 constexpr int kDefaultStitchFrames = 16;
-// The widest stitch a job may ask for: a stitch task is sent all its guide frames in one assignment
-// (at most kMaxStitchFrames - 1 frames of the level), and 1 000 frames is 10 s of a shot at 100 fps.
+// The widest stitch a job may ask for: 1 000 frames is 10 s of a shot at 100 fps, and a stitch's guide
+// frames are kept in the task store (farm.sqlite) until the job is removed.
 constexpr int kMaxStitchFrames = 1000;
 
 // The level-0 chunk length used when GraphOptions::preview_chunk is 0: min(50, N) frames.

@@ -20,8 +20,7 @@ Parts encode(const Welcome& m) {
 }
 
 // Data parts, in order: the hierarchy blob when present ("hierarchy_bytes"), then own_before and
-// own_start when present ("own_vertices" = n, 3 n doubles each), then the guides ("guides" of them,
-// 3 n doubles each; only with own frames).
+// own_start when present ("own_vertices" = n, 3 n doubles each). "stitch": true only with own frames.
 Parts encode(const AssignTask& m) {
   Json h = wire::header(wire::kAssign);
   h["attempt"] = m.attempt;
@@ -54,22 +53,21 @@ Parts encode(const AssignTask& m) {
     data.push_back(wire::doubles_part(*m.own_start));
   }
   if (m.own_kappa) h["own_kappa"] = wire::number(*m.own_kappa);
-  if (!m.guides.empty()) {
-    if (!m.own_before) throw ProtocolError("assign: field 'guides': a stitch continues from own frames, none given");
-    for (const std::vector<double>& g : m.guides) {
-      if (g.size() != m.own_before->size())
-        throw ProtocolError("assign: field 'guides': " + std::to_string(g.size()) + " numbers, own_before has " +
-                            std::to_string(m.own_before->size()));
-      data.push_back(wire::doubles_part(g));
-    }
-    h["guides"] = m.guides.size();
+  if (m.stitch) {
+    if (!m.own_before || m.kind != TaskKind::level)
+      throw ProtocolError("assign: field 'stitch': a stitch is a level task continuing from own frames, none given");
+    h["stitch"] = true;
   }
   return wire::finish(h, std::move(data));
 }
 
-Parts encode(const BelowFrame& m) {
-  wire::require_triples(wire::kBelowFrame, "positions", m.positions);
-  Json h = wire::header(wire::kBelowFrame);
+namespace {
+
+// BelowFrame and GuideFrame: the same fields under their own type.
+template <typename FedFrame>
+Parts encode_fed_frame(const char* type, const FedFrame& m) {
+  wire::require_triples(type, "positions", m.positions);
+  Json h = wire::header(type);
   h["attempt"] = m.attempt;
   h["task"] = m.task;
   h["level"] = m.level;
@@ -77,6 +75,12 @@ Parts encode(const BelowFrame& m) {
   h["vertices"] = m.positions.size() / 3;
   return wire::finish(h, {wire::doubles_part(m.positions)});
 }
+
+}  // namespace
+
+Parts encode(const BelowFrame& m) { return encode_fed_frame(wire::kBelowFrame, m); }
+
+Parts encode(const GuideFrame& m) { return encode_fed_frame(wire::kGuideFrame, m); }
 
 Parts encode(const CancelTask& m) {
   Json h = wire::header(wire::kCancelTask);
@@ -140,24 +144,24 @@ Command decode_assign(const Message& msg) {
   const std::size_t blob_bytes = has_blob ? msg.byte_count("hierarchy_bytes") : 0;
   const bool has_own = f.has("own_vertices");
   const int64_t own_vertices = has_own ? msg.vertex_count("own_vertices") : 0;
-  const int guides = f.has("guides") ? f.count("guides") : 0;
-  if (guides > 0 && (!has_own || m.kind != TaskKind::level || guides != m.last - m.first))
-    throw ProtocolError("assign: field 'guides': " + std::to_string(guides) + " guide frames need own frames and " +
-                        "one per frame first + 1 .. last (" + std::to_string(m.last - m.first) + ")");
-  msg.expect_parts(1 + (has_blob ? 1 : 0) + (has_own ? 2 + guides : 0));
+  m.stitch = f.has("stitch") && f.boolean("stitch");
+  if (m.stitch && (!has_own || m.kind != TaskKind::level))
+    throw ProtocolError("assign: field 'stitch': a stitch is a level task continuing from own frames, none given");
+  msg.expect_parts(1 + (has_blob ? 1 : 0) + (has_own ? 2 : 0));
   std::size_t next = 1;
   if (has_blob) m.hierarchy_blob = msg.blob(next++, blob_bytes, "hierarchy_bytes");
   if (has_own) {
     m.own_before = msg.doubles(next++, own_vertices);
     m.own_start = msg.doubles(next++, own_vertices);
-    for (int g = 0; g < guides; ++g) m.guides.push_back(msg.doubles(next++, own_vertices));
   }
   return m;
 }
 
-Command decode_below_frame(const Message& msg) {
+// BelowFrame and GuideFrame: the same fields, one frame of positions as data part 1.
+template <typename FedFrame>
+Command decode_fed_frame(const Message& msg) {
   const wire::Fields f = msg.fields();
-  BelowFrame m;
+  FedFrame m;
   m.attempt = f.id("attempt");
   m.task = f.id("task");
   m.level = f.count("level");
@@ -189,10 +193,11 @@ Command decode_refused(const Message& msg) {
 }
 
 using Decoder = Command (*)(const Message&);
-constexpr std::array<std::pair<const char*, Decoder>, 6> kDecoders{{
+constexpr std::array<std::pair<const char*, Decoder>, 7> kDecoders{{
     {wire::kWelcome, decode_welcome},
     {wire::kAssign, decode_assign},
-    {wire::kBelowFrame, decode_below_frame},
+    {wire::kBelowFrame, decode_fed_frame<BelowFrame>},
+    {wire::kGuideFrame, decode_fed_frame<GuideFrame>},
     {wire::kCancelTask, decode_cancel_task},
     {wire::kHeartbeat, decode_heartbeat},
     {wire::kRefused, decode_refused},

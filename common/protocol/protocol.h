@@ -42,7 +42,8 @@ namespace pd::protocol {
 // 6: Hello.blas_kernel.
 // 7: seam stitches: AssignTask.guides, SubmitJob.stitch, RefineJob.stitch, TaskStatus.stitch,
 //    JobStatus.stitch; JobStatus.seams.
-constexpr int kProtocolVersion = 7;
+// 8: a stitch's guide frames stream as GuideFrame commands; AssignTask.guides becomes AssignTask.stitch.
+constexpr int kProtocolVersion = 8;
 
 // Upper bound on a whole message (all parts), bytes; larger messages are refused when decoded (and
 // sockets set ZMQ_MAXMSGSIZE to it). 1 GiB: a job file fetched in one reply must fit.
@@ -129,7 +130,8 @@ struct Welcome {
 };
 
 // Run one attempt of a task. For kind == level the worker then receives the frames of level - 1 it
-// needs as BelowFrame messages (frames max(first - 1, 0) .. last - 1), in any order, while it runs.
+// needs as BelowFrame messages (frames max(first - 1, 0) .. last - 1), in any order, while it runs;
+// a stitch also receives its guide frames first + 1 .. last as GuideFrame messages.
 struct AssignTask {
   int64_t attempt = 0;
   int64_t task = 0;
@@ -155,13 +157,22 @@ struct AssignTask {
   std::optional<std::vector<double>> own_before, own_start;
   std::optional<double> own_kappa;
   // A seam's stitch task (farm/task_graph.h; it continues horizontally, so own frames are present):
-  // the later subset's guide frames first + 1 .. last, in order (3 n_l doubles each, data parts after
-  // the own frames; "guides" in the header counts them). Empty for any other task.
-  std::vector<std::vector<double>> guides;
+  // its guide frames come as GuideFrame messages while it runs, as the later subset solves them.
+  bool stitch = false;
 };
 
 // A frame of level `level` (the level below the task's) for the running attempt.
 struct BelowFrame {
+  int64_t attempt = 0;
+  int64_t task = 0;
+  int level = 0;
+  int frame = 0;
+  std::vector<double> positions;  // data part 1
+};
+
+// A guide frame of a running stitch (AssignTask.stitch): the later subset's frame `frame` of the
+// task's own level, first + 1 <= frame <= last. Sent in frame order as the later subset stores them.
+struct GuideFrame {
   int64_t attempt = 0;
   int64_t task = 0;
   int level = 0;
@@ -190,7 +201,7 @@ struct Refused {
 // lost): a worker that gets it says Hello again.
 constexpr const char* kUnknownWorkerReason = "unknown worker: send hello first";
 
-using Command = std::variant<Welcome, AssignTask, BelowFrame, CancelTask, SchedulerHeartbeat, Refused>;
+using Command = std::variant<Welcome, AssignTask, BelowFrame, GuideFrame, CancelTask, SchedulerHeartbeat, Refused>;
 
 // ---------------------------------------------------------------------------------------------------
 // Reports: worker -> scheduler.
@@ -453,6 +464,7 @@ using Reply = std::variant<Submitted, Accepted, StatusReply, FetchReply, Workers
 Parts encode(const Welcome& m);
 Parts encode(const AssignTask& m);
 Parts encode(const BelowFrame& m);
+Parts encode(const GuideFrame& m);
 Parts encode(const CancelTask& m);
 Parts encode(const SchedulerHeartbeat& m);
 Parts encode(const Refused& m);

@@ -13,8 +13,9 @@ static_assert(std::numeric_limits<double>::is_iec559 && sizeof(double) == 8, "do
 
 namespace {
 
-constexpr std::array<std::pair<const char*, Family>, 29> kTypes{{
+constexpr std::array<std::pair<const char*, Family>, 30> kTypes{{
     {kWelcome, Family::command},       {kAssign, Family::command},         {kBelowFrame, Family::command},
+    {kGuideFrame, Family::command},
     {kCancelTask, Family::command},    {kHeartbeat, Family::command},      {kRefused, Family::command},
     {kHello, Family::report},          {kWorkerHeartbeat, Family::report}, {kFrame, Family::report},
     {kTaskDone, Family::report},       {kTaskFailed, Family::report},      {kHierarchyDone, Family::report},

@@ -37,6 +37,7 @@ using Json = nlohmann::ordered_json;
 constexpr char kWelcome[] = "welcome";
 constexpr char kAssign[] = "assign";
 constexpr char kBelowFrame[] = "below_frame";
+constexpr char kGuideFrame[] = "guide_frame";
 constexpr char kCancelTask[] = "cancel_task";
 constexpr char kHeartbeat[] = "heartbeat";  // the scheduler's
 constexpr char kRefused[] = "refused";

@@ -178,8 +178,9 @@ TaskRow close_refused_start(Db& db, const char* what, int64_t task, int64_t atte
 
 
 // A subset whose vertical start went away (continue_horizontally, move_seam) has no seam at its first
-// frame to stitch: its guides become 0, and the stitch task of its seam, which waits for those guide
-// frames (it cannot have run without them), is removed.
+// frame to stitch: its guides become 0, and the stitch task of its seam, which waits for the first of
+// those guide frames (it cannot have run without it; the scheduler never moves a seam whose guide
+// frames are stored), is removed.
 void remove_stitch_of(Db& db, const TaskRow& subset) {
   run_sql(db, "UPDATE tasks SET guides = 0 WHERE id = ?1", subset.id);
   Statement find(db, "SELECT id, state FROM tasks WHERE job_id = ?1 AND level = ?2 AND first = ?3 AND stitch = 1");

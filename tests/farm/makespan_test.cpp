@@ -127,6 +127,21 @@ TEST(Makespan, AStitchRunsAfterTheEarlierSubsetEndsAndAddsItsStepsComputedByHand
   EXPECT_DOUBLE_EQ(p.busy_fraction, (8.0 + 8.0 + 1.0 + 8.0 + 4.0) / (3 * 20.0));
 }
 
+// A stitch is fed its guide frames as the later subset stores them: N = 8, seam 2, W = 5, 3 workers,
+// the same costs. At 8 (0,2] stores frames 1, 2 at 10, 12; (2,8] starts vertically (9) and stores
+// guide frames 3..6 at 11, 13, 15, 17 and frames 7, 8 at 19, 21. The stitch (2,6] is ready at 12
+// (level 1's frame 2 and guide frame 3) and solves 3..6 at 14, 16, 18, 20, each a step behind its
+// guide frame: the job ends at 21. Waiting for all four guide frames (ready at 17) it would end at 25.
+TEST(Makespan, AStitchRunsAStepBehindTheGuideFramesItIsFed) {
+  GraphOptions o{8, 2, 2, 8, false};
+  o.stitch = 5;
+  const Plan p = predict_plan(o, costs({1.0, 2.0}, {0.0, 1.0}, 0.0, 0.0), 3, {2});
+  EXPECT_EQ(p.makespan, 21.0);
+  EXPECT_DOUBLE_EQ(p.busy_fraction, (8.0 + 4.0 + 13.0 + 8.0) / (3 * 21.0));
+  // On two workers the stitch takes the worker (0,2] frees at 12: the same 21.
+  EXPECT_EQ(predict_plan(o, costs({1.0, 2.0}, {0.0, 1.0}, 0.0, 0.0), 2, {2}).makespan, 21.0);
+}
+
 // Per-frame step costs (a run's solve_seconds) replace the level's mean: N = 4, K = 2, 2 workers,
 // level 0 free (cost 0), level 1's steps cost 1, 1, 4, 4 s. Both subsets start at 0 (the preview is
 // done at once): (0,2] ends at 2, (2,4] at 8; the mean (2.5 s) would give 5 for both.

@@ -280,10 +280,10 @@ TEST(TaskGraph, EachSeamOfEachRefinementLevelGetsAStitchTaskGuidedByTheLaterSubs
       "level 0 (0,20] after",
       "level 1 (0,10] after needs 0:0",
       "level 1 (10,20] after needs 0:9 0:10 guides 3",
-      "level 1 (10,13] after needs 0:9 0:10 1:9 1:10 stitch guided by 1:11 1:12 1:13",
+      "level 1 (10,13] after needs 0:9 0:10 1:9 1:10 stitch guided by 1:11",
       "level 2 (0,10] after needs 1:0",
       "level 2 (10,20] after needs 1:9 1:10 1:11 guides 3",
-      "level 2 (10,13] after needs 1:9 1:10 1:11 2:9 2:10 stitch guided by 2:11 2:12 2:13",
+      "level 2 (10,13] after needs 1:9 1:10 1:11 2:9 2:10 stitch guided by 2:11",
   };
   EXPECT_EQ(describe(job_tasks(o)), expected);
   // The later subset stores 14..20; its 11..13 are guide frames, which the stitch task stores instead.
@@ -302,8 +302,9 @@ TEST(TaskGraph, AStitchIsClampedToItsLaterSubsetAndLeftOutBelowTwoFrames) {
   GraphOptions o{10, 2, 2, 10, false};
   o.stitch = 4;
   EXPECT_EQ(describe(job_tasks(o, {8})).back(), "level 1 (8,10] after needs 0:7 0:8");
-  // Later subset (6, 10]: w = 3, the stitch (6, 8] guided by 7 and 8; the subset keeps frames 9 and 10.
-  EXPECT_EQ(describe(job_tasks(o, {6})).back(), "level 1 (6,8] after needs 0:5 0:6 1:5 1:6 stitch guided by 1:7 1:8");
+  // Later subset (6, 10]: w = 3, the stitch (6, 8] guided by 7 and 8 (ready once 7 is stored); the
+  // subset keeps frames 9 and 10.
+  EXPECT_EQ(describe(job_tasks(o, {6})).back(), "level 1 (6,8] after needs 0:5 0:6 1:5 1:6 stitch guided by 1:7");
   EXPECT_FALSE(stitch_task(1, 5, 10, 1).has_value());
   EXPECT_FALSE(stitch_task(1, 5, 10, 0).has_value());
   EXPECT_EQ(stitch_task(2, 5, 30, 16)->last, 20);
@@ -324,10 +325,13 @@ TEST(TaskGraph, WithStitchesEveryFrameIsStoredOnceAndEveryGuideFrameFeedsOneStit
             for (int f = own->first; f <= own->last; ++f) ++stored[t.level][f];
           if (const std::optional<FrameRange> g = guide_frames(t))
             for (int f = g->first; f <= g->last; ++f) ++guides[t.level][f];
-          for (const FrameKey& g : t.guide_needs) ++guided[g.level][g.frame];
           EXPECT_EQ(t.stitch, !t.guide_needs.empty());
           if (t.stitch) {
-            EXPECT_EQ(static_cast<int>(t.guide_needs.size()), t.last - t.first);
+            // Ready once its first guide frame is stored; guided toward first + 1 .. last (fed).
+            ASSERT_EQ(t.guide_needs.size(), 1u);
+            EXPECT_EQ(t.guide_needs[0].level, t.level);
+            EXPECT_EQ(t.guide_needs[0].frame, t.first + 1);
+            for (int f = t.first + 1; f <= t.last; ++f) ++guided[t.level][f];
             EXPECT_LE(t.last - t.first + 1, w);
             // Its own frames s - 1 and s are never another stitch's (no chain of stitches).
             for (const NewTask& u : job_tasks(o)) {

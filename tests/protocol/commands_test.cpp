@@ -101,40 +101,59 @@ void expect_same(const AssignTask& a, const AssignTask& b) {
   if (a.own_kappa) {
     EXPECT_TRUE(same_bits({*a.own_kappa}, {*b.own_kappa}));
   }
-  ASSERT_EQ(a.guides.size(), b.guides.size());
-  for (std::size_t g = 0; g < a.guides.size(); ++g) EXPECT_TRUE(same_bits(a.guides[g], b.guides[g])) << g;
+  EXPECT_EQ(a.stitch, b.stitch);
 }
 
-// A stitch task (first 10, last 13): guide frames 11, 12, 13.
+// A stitch task (first 10, last 13): its guide frames 11, 12, 13 come as GuideFrame commands.
 AssignTask stitch_assign() {
   AssignTask m = full_assign();
   m.first = 10;
   m.last = 13;
   m.start = 10;
-  for (int g = 0; g < 3; ++g) m.guides.push_back(tricky_positions(4, 0.5 + g));
+  m.stitch = true;
   return m;
 }
 
-TEST(ProtocolCommands, AssignTaskOfAStitchCarriesItsGuideFramesBitForBitAfterTheOwnFrames) {
+TEST(ProtocolCommands, AssignTaskOfAStitchSaysSoAndCarriesNoGuideFrames) {
   const AssignTask m = stitch_assign();
   const Parts parts = encode(m);
-  ASSERT_EQ(parts.size(), 7u);  // header, blob, own_before, own_start, three guides
-  EXPECT_EQ(header(parts)["guides"], 3);
+  ASSERT_EQ(parts.size(), 4u);  // header, blob, own_before, own_start
+  EXPECT_EQ(header(parts)["stitch"], true);
   expect_same(round_trip(m), m);
+  EXPECT_FALSE(header(encode(full_assign())).contains("stitch"));
 }
 
-TEST(ProtocolCommands, AssignTaskGuidesAreRefusedWithoutOwnFramesOrOnePerFrame) {
+TEST(ProtocolCommands, AStitchWithoutOwnFramesOrOfAHierarchyTaskIsRefusedBothWays) {
   AssignTask no_own = stitch_assign();
   no_own.own_before.reset();
   no_own.own_start.reset();
   EXPECT_THROW(encode(no_own), ProtocolError);
-  Parts parts = encode(stitch_assign());
+  const Parts parts = encode(stitch_assign());
   Json h = header(parts);
-  h["guides"] = 2;  // three data parts follow, and the task has three frames
-  EXPECT_TRUE(has(error_of(with_header(parts, h)), "assign: field 'guides': 2 guide frames need own frames"));
-  h["guides"] = 3;
   h.erase("own_vertices");
-  EXPECT_TRUE(has(error_of(with_header(parts, h)), "assign: field 'guides'"));
+  EXPECT_TRUE(has(error_of(with_header(parts, h)), "assign: field 'stitch': a stitch is a level task"));
+  h = header(parts);
+  h["kind"] = "hierarchy";
+  EXPECT_TRUE(has(error_of(with_header(parts, h)), "assign: field 'stitch'"));
+  h = header(parts);
+  h["stitch"] = "yes";
+  EXPECT_TRUE(has(error_of(with_header(parts, h)), "stitch"));
+}
+
+TEST(ProtocolCommands, GuideFrameRoundTripsBitForBitUnderItsOwnType) {
+  const GuideFrame m{5, 6, 2, 11, tricky_positions(4, 0.25)};
+  const Parts parts = encode(m);
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_EQ(header(parts)["type"], "guide_frame");
+  const Command c = decode_command(parts);
+  ASSERT_TRUE(std::holds_alternative<GuideFrame>(c));
+  const GuideFrame& g = std::get<GuideFrame>(c);
+  EXPECT_EQ(g.attempt, 5);
+  EXPECT_EQ(g.task, 6);
+  EXPECT_EQ(g.level, 2);
+  EXPECT_EQ(g.frame, 11);
+  EXPECT_TRUE(same_bits(g.positions, m.positions));
+  EXPECT_THROW(encode(GuideFrame{5, 6, 2, 11, {1.0, 2.0}}), ProtocolError);  // not triples
 }
 
 TEST(ProtocolCommands, WelcomeRoundTrips) {
@@ -224,6 +243,7 @@ TEST(ProtocolCommands, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(encode(Welcome{1, 2})), 2);
   EXPECT_EQ(check_every_field_required(encode(plain_assign())), 13);
   EXPECT_EQ(check_every_field_required(encode(BelowFrame{1, 2, 3, 4, {1, 2, 3}})), 5);
+  EXPECT_EQ(check_every_field_required(encode(GuideFrame{1, 2, 3, 4, {1, 2, 3}})), 5);
   EXPECT_EQ(check_every_field_required(encode(CancelTask{1, 2, "r"})), 3);
   EXPECT_EQ(check_every_field_required(encode(Refused{"r"})), 1);
   EXPECT_EQ(check_every_field_required(encode(SchedulerHeartbeat{5})), 1);
@@ -249,6 +269,7 @@ TEST(ProtocolCommands, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(encode(Welcome{1, 2})), 2);
   EXPECT_EQ(check_every_field_typed(encode(full_assign())), 16);  // the optional ones too
   EXPECT_EQ(check_every_field_typed(encode(BelowFrame{1, 2, 3, 4, {1, 2, 3}})), 5);
+  EXPECT_EQ(check_every_field_typed(encode(GuideFrame{1, 2, 3, 4, {1, 2, 3}})), 5);
   EXPECT_EQ(check_every_field_typed(encode(CancelTask{1, 2, "r"})), 3);
   EXPECT_EQ(check_every_field_typed(encode(Refused{"r"})), 1);
   EXPECT_EQ(check_every_field_typed(encode(SchedulerHeartbeat{5})), 1);

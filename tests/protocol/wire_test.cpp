@@ -306,6 +306,7 @@ std::vector<Parts> samples() {
   return {encode(Welcome{}),
           encode(assign),
           encode(BelowFrame{1, 2, 0, 3, {1, 2, 3}}),
+          encode(GuideFrame{1, 2, 1, 4, {1, 2, 3}}),
           encode(CancelTask{}),
           encode(SchedulerHeartbeat{}),
           encode(Refused{"late"}),

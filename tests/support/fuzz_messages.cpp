@@ -66,6 +66,7 @@ std::vector<Parts> commands() {
           protocol::encode(level),
           protocol::encode(hierarchy),
           protocol::encode(protocol::BelowFrame{kId, kId + 1, 0, 3, {0.0, 1.0, 2.0, 3.0, 4.0, 5.0}}),
+          protocol::encode(protocol::GuideFrame{kId, kId + 1, 1, 4, {0.0, 1.0, 2.0, 3.0, 4.0, 5.0}}),
           protocol::encode(protocol::CancelTask{kId, kId + 1, "fuzz"}),
           protocol::encode(protocol::SchedulerHeartbeat{7}),
           protocol::encode(protocol::Refused{"fuzz"})};
