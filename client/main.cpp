@@ -50,6 +50,8 @@ CLI::Validator count_at_least_one() { return pd::cli::decimal_integer(1, kIntMax
 CLI::Validator job_id() { return pd::cli::decimal_integer(1, INT64_MAX, "a positive integer (a job id)"); }
 CLI::Validator frame_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxFrames); }
 CLI::Validator stitch_frames() { return pd::cli::decimal_integer(0, pd::farm::kMaxStitchFrames); }
+const std::string stitch_help = "Frames each seam is stitched over, so that it does not pop (0: none; default " +
+                                std::to_string(pd::farm::kDefaultStitchFrames) + ")";
 CLI::Validator level_count() { return pd::cli::decimal_integer(1, pd::cli::kMaxLevels); }
 CLI::Validator level_index() { return pd::cli::decimal_integer(0, pd::cli::kMaxLevels - 1); }
 CLI::Validator positive_seconds() { return pd::cli::decimal_real(0.0, true, 1e9, "seconds, > 0 and <= 1e9"); }
@@ -115,7 +117,7 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
   f.submit->add_option("--levels", f.sub.levels, "Hierarchy levels instead of the scene's")->transform(level_count());
   f.submit->add_option("--subsets", f.sub.subsets, "Time subsets per refinement level (parallel tasks)")
       ->transform(count_at_least_one());
-  f.submit->add_option("--stitch", f.sub.stitch, "Frames each seam is stitched over, so that it does not pop (0: none; default 16)")
+  f.submit->add_option("--stitch", f.sub.stitch, stitch_help)
       ->transform(stitch_frames());
   f.submit->add_option("--priority", f.sub.priority, "Higher runs first (default 0)")
       ->transform(pd::cli::decimal_integer(-kIntMax - 1, kIntMax));
@@ -149,7 +151,7 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
   f.refine = app.add_subcommand("refine", "Add the refinement levels to a preview-only job");
   f.refine->add_option("job", f.re.job, job_help)->required()->transform(job_id());
   f.refine->add_option("--subsets", f.re.subsets, "Time subsets per refinement level")->transform(count_at_least_one());
-  f.refine->add_option("--stitch", f.re.stitch, "Frames each seam is stitched over, so that it does not pop (0: none; default 16)")
+  f.refine->add_option("--stitch", f.re.stitch, stitch_help)
       ->transform(stitch_frames());
   add_farm_options(f.refine, f.re.farm, f.re.keys);
   f.refine->add_flag("--json", f.re.json, "Print {\"job\", \"message\"}");
@@ -172,7 +174,7 @@ void add_farm_commands(CLI::App& app, FarmCommands& f) {
       ->transform(count_at_least_one());
   f.run->add_option("--out,-o", f.ru.out, "Frame file to write (HDF5) when the job is done")->required();
   f.run->add_option("--subsets", f.ru.subsets, "Time subsets per refinement level")->transform(count_at_least_one());
-  f.run->add_option("--stitch", f.ru.stitch, "Frames each seam is stitched over, so that it does not pop (0: none; default 16)")
+  f.run->add_option("--stitch", f.ru.stitch, stitch_help)
       ->transform(stitch_frames());
   f.run->add_flag("--preview-only", f.ru.preview_only, "Only the preview (level 0)");
   f.run->add_option("--levels", f.ru.levels, "Hierarchy levels instead of the scene's")->transform(level_count());

@@ -52,9 +52,11 @@ struct GraphOptions {
   int stitch = 0;          // W: frames a seam is stitched over (item 4 above); 0 or 1: no stitch
 };
 
-// The default stitch width: 16 frames removed every visible seam measured on the flag and drape-gear
-// (docs/progressive.md, "Stitching a seam"), for about 16 of the level's steps per seam.
-constexpr int kDefaultStitchFrames = 16;
+// The default stitch width: with the smootherstep ramp (progressive/level_task.cpp) 8 frames kept every
+// seam and junction the bench measured at its K = 1 pop (docs/progressive.md, "Stitching a seam"),
+// for about 3-9 of the level's steps per seam; 16 frames, the default until then, cost twice that
+// and kept 64 workers below 30x on flag-large-10s (docs/performance.md).
+constexpr int kDefaultStitchFrames = 8;
 // The widest stitch a job may ask for: 1 000 frames is 10 s of a shot at 100 fps, and a stitch's guide
 // frames are kept in the task store (farm.sqlite) until the job is removed.
 constexpr int kMaxStitchFrames = 1000;

@@ -64,7 +64,7 @@ struct LevelTaskInputs {
   std::optional<double> own_kappa;
   // A stitch (physics/guide.h): with a horizontal continuation from own frames a-1 and a, the steps
   // to frames a+1..a+stitch_frames (from the seam, below) add a guide toward stitch_target(f) (the later subset's frame f of
-  // the same level, stacked) whose weight ramps as kStitchWeight * smoothstep((f - a) / stitch_frames):
+  // the same level, stacked) whose weight w ramps so that w / (1 + w) follows smootherstep((f - a) / stitch_frames):
   // from 0 to 100 times the inertia's stiffness. Later subset frames solve the same step problems
   // (their inertia targets come from the level below, not from their own past), so each is a
   // stationary point of step energy plus guide, and the last stitched frame lands on the later

@@ -15,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "farm/task_graph.h"
 #include "progressive/error_measures.h"
 #include "store/frame_store.h"
 #include "support/farm.h"
@@ -250,14 +251,14 @@ TEST_F(FarmTest, RefiningWithSubsetsWaitsForThePreviewAndCutsTheLevelsAtSeamsPla
     std::vector<int> firsts;
     for (const json& t : level_tasks(status, l)) firsts.push_back(t.at("first").get<int>());
     ASSERT_EQ(firsts.size(), 3u) << status.dump();
-    const std::vector<json> stitches = level_tasks(status, l, true);  // one per seam, 16 frames (pd's default)
+    const std::vector<json> stitches = level_tasks(status, l, true);  // one per seam, pd's default width
     ASSERT_EQ(stitches.size(), 2u) << status.dump();
     EXPECT_EQ(firsts[0], 0);
     for (int k = 1; k <= 2; ++k) {
       EXPECT_NEAR(firsts[k], 20 * k, kFrames / 12) << "level " << l;
       EXPECT_NE(why.find("frame " + std::to_string(firsts[k]) + ","), std::string::npos) << why;
       EXPECT_EQ(stitches[static_cast<std::size_t>(k - 1)].at("first"), firsts[k]);
-      EXPECT_EQ(stitches[static_cast<std::size_t>(k - 1)].at("last"), firsts[k] + 15);
+      EXPECT_EQ(stitches[static_cast<std::size_t>(k - 1)].at("last"), firsts[k] + farm::kDefaultStitchFrames - 1);
     }
   }
   // pd status shows the seams and why each was placed there (the log's reasons), and the stitch.
@@ -265,7 +266,10 @@ TEST_F(FarmTest, RefiningWithSubsetsWaitsForThePreviewAndCutsTheLevelsAtSeamsPla
   for (const json& reason : status.at("seams")) EXPECT_NE(why.find(reason.get<std::string>()), std::string::npos) << why;
   const test::RunResult text = farm.pd({"status", std::to_string(job)});
   ASSERT_EQ(text.exit_code, 0) << text.describe();
-  EXPECT_NE(text.out.find("  seams (K = 3, each stitched over 16 frames):\n    frame "), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("  seams (K = 3, each stitched over " + std::to_string(farm::kDefaultStitchFrames) +
+                          " frames):\n    frame "),
+            std::string::npos)
+      << text.out;
   // The refinement was added when the preview's last frame was stored, not before.
   double last_preview = 0.0;
   for (const json& e : test::log_events(farm.scheduler_log(), "frame_stored"))
@@ -314,7 +318,7 @@ TEST_F(FarmTest, AStitchedSeamDoesNotPopWhereTheUnstitchedSeamDoes) {
   const std::vector<json> stitches = level_tasks(status, finest, true);
   ASSERT_EQ(stitches.size(), 1u) << status.dump();
   const int s = stitches[0].at("first").get<int>(), junction = stitches[0].at("last").get<int>();
-  ASSERT_EQ(junction, s + 15);
+  ASSERT_EQ(junction, s + farm::kDefaultStitchFrames - 1);
   ASSERT_EQ(first_seam(job_status(farm, plain), finest), s) << "both jobs place their seam from the same preview";
 
   const std::vector<SeamPop> base = level_pops(k1, finest, {s, junction});
