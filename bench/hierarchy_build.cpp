@@ -66,6 +66,7 @@
 #include "util/fnv1a.h"
 #include "util/parallel.h"
 #include "util/process_setup.h"
+#include "upsampling_report.h"
 
 using namespace pd;
 
@@ -433,19 +434,9 @@ double run_size(const std::string& shape, int cells, const Options& opt, std::ve
       }
       const double wall = out.wall;
       total += setup + wall;
-      const double other =
-          r.seconds - r.perturb_seconds - r.advance_seconds - r.relax_seconds - r.pull_seconds - r.strain_seconds;
-      std::printf("%s %d -> %d (%d -> %d vertices): setup %.3f s, wall %.3f s; %d batches, %d splits (%d random "
-                  "perturbations, %d samples), %d advance events (%d close, %d redirections), %d stopped, %d relaxed patches, %d "
-                  "unopened splits, %d short at the end (%d pull iterations), %d "
-                  "unresolved; gap %.3g -> %.3g m; target distance max %.3g m rms %.3g m; stretch %.4f -> %.4f; "
-                  "%.3f s (perturb %.3f, advance %.3f, relax %.3f, pull %.3f, strain %.3f, other %.3f)\n",
-                  states[s], l, l + 1, static_cast<int>(x.rows()), static_cast<int>(target.rows()), setup, wall,
-                  r.batches, r.splits, r.random_perturbations, r.perturbation_samples, r.advance_events,
-                  r.close_events, r.redirections, r.stopped_vertices, r.relaxed_patches, r.unopened_splits,
-                  r.final_pull_vertices, r.pull_newton_iterations, r.unresolved_gaps, r.coarse_gap, r.final_gap,
-                  r.max_target_distance, r.rms_target_distance, r.max_stretch_before, r.max_stretch_after, r.seconds,
-                  r.perturb_seconds, r.advance_seconds, r.relax_seconds, r.pull_seconds, r.strain_seconds, other);
+      std::printf("%s %d -> %d (%d -> %d vertices): setup %.3f s, wall %.3f s; %s\n", states[s], l, l + 1,
+                  static_cast<int>(x.rows()), static_cast<int>(target.rows()), setup, wall,
+                  bench::describe_upsampling(r).c_str());
       std::fflush(stdout);
       upsample_rows.push_back(fmt("| %s | %d | %s | %d -> %d | %d | %d | %d (%d) | %d | %d | %d / %d | %d | %.3g / %.3g | "
                                   "%.2g / %.2g | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |",
@@ -454,7 +445,10 @@ double run_size(const std::string& shape, int cells, const Options& opt, std::ve
                                   r.close_events, r.stopped_vertices, r.relaxed_patches, r.unopened_splits,
                                   r.final_pull_vertices, r.unresolved_gaps, 1e3 * r.coarse_gap, 1e3 * r.final_gap,
                                   r.max_target_distance, r.rms_target_distance, r.seconds, r.perturb_seconds,
-                                  r.advance_seconds, r.relax_seconds, r.pull_seconds, r.strain_seconds, other, setup,
+                                  r.advance_seconds, r.relax_seconds, r.pull_seconds, r.strain_seconds,
+                                  r.seconds - r.perturb_seconds - r.advance_seconds - r.relax_seconds -
+                                      r.pull_seconds - r.strain_seconds,
+                                  setup,
                                   r.seconds / build));
     }
     std::printf("%s: upsampling all transitions %.2f s = %.2f x the build\n", states[s], total, total / build);

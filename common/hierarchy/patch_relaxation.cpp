@@ -31,6 +31,9 @@ constexpr double kMembraneScale = kYoungs * kThickness;  // E t, N/m
 
 // relax_gaps' barrier reaches 2 * min_gap beyond the offset (why: header, relax_gaps).
 constexpr double kGapReachFactor = 2.0;
+// relax_gaps stops its rounds when a round's Newton solve ran out of iterations and the smallest gap
+// did not grow by this factor over the round before (header, "Stalls").
+constexpr double kStallGrowth = 1.1;
 // relax_gaps' first kappa, in units of (E t) / dhat_b^2 (why: header, "Starting kappa").
 constexpr double kStartKappa = 1e-2;
 // A rest triangle with |e1 x e2| <= this * (longest edge)^2 is degenerate (sin of its smallest angle
@@ -346,8 +349,15 @@ RelaxationReport relax_gaps(const RelaxationMesh& mesh, const std::vector<int>& 
     report.rounds = round;
     report.newton_iterations += nr.iterations;
     write_free(s, xs, x);
+    const double before = gap;
     gap = relaxation_min_gap(prims, x, mesh.offset, reach, s.free_mask);
     if (gap >= settings.min_gap) break;
+    // A stalled solve (header, "Stalls"): a stiffer barrier does not help Newton steps that the
+    // line search cuts to nothing.
+    if (settings.stop_when_stalled && !nr.converged && !(gap > kStallGrowth * before)) {
+      report.stalled = true;
+      break;
+    }
     kappa *= 2.0;
   }
   report.min_gap_after = gap;

@@ -290,6 +290,40 @@ TEST(PatchRelaxation, StiffPatchNeedsSeveralStiffnessRounds) {
   EXPECT_TRUE(test::intersection_free(s.x, s.prims.faces));
 }
 
+// A free sheet between two fixed sheets 2e-5 m apart, 3e-6 m above the lower one, asked for a gap
+// of 1 mm it can never have, with one Newton iteration per round (so that no round converges). The
+// rounds move it toward the middle while its gap grows, then stall (header, "Stalls"): they stop
+// there instead of doubling kappa 16 times, with the same gap to within a few percent, and
+// intersection-free either way.
+TEST(PatchRelaxation, ARelaxationThatCannotOpenItsGapsStopsWhenItsRoundsStall) {
+  std::vector<int> free;
+  Scene s = two_parallel_sheets(3e-6, free);
+  TriMesh upper = make_rectangle(1.0, 1.0, 4, 4);
+  for (int i = 0; i < upper.num_vertices(); ++i) upper.V.row(i) << upper.V(i, 0) + 0.013, upper.V(i, 1) - 0.021, 2e-5;
+  s.add(upper, upper.V, false);
+  Scene full = s;
+  GapRelaxationSettings gs;
+  gs.min_gap = 1e-3;
+  gs.max_stiffness_rounds = 16;
+  gs.newton_iterations_per_round = 1;
+  const RelaxationReport stopped = relax_gaps(s.mesh(), free, gs, s.x);
+  gs.stop_when_stalled = false;
+  const RelaxationReport all = relax_gaps(full.mesh(), free, gs, full.x);
+  std::printf("[stall] stopped: rounds %d, gap %.4g -> %.4g; all rounds: %d, gap %.4g\n", stopped.rounds,
+              stopped.min_gap_before, stopped.min_gap_after, all.rounds, all.min_gap_after);
+  EXPECT_FALSE(stopped.satisfied);
+  EXPECT_TRUE(stopped.stalled);
+  EXPECT_GT(stopped.rounds, 1);  // the first rounds make progress
+  EXPECT_LT(stopped.rounds, 16);
+  EXPECT_GT(stopped.min_gap_after, stopped.min_gap_before);
+  EXPECT_FALSE(all.stalled);
+  EXPECT_EQ(all.rounds, 16);
+  EXPECT_FALSE(all.satisfied);
+  EXPECT_NEAR(stopped.min_gap_after, all.min_gap_after, 0.05 * all.min_gap_after);
+  EXPECT_TRUE(test::intersection_free(s.x, s.prims.faces));
+  EXPECT_TRUE(test::intersection_free(full.x, full.prims.faces));
+}
+
 // Thickness offset 1 mm, sheets 1e-5 m apart: every pair starts 1 mm *inside* the offset (but
 // intersection-free). relax_gaps must push them out to d >= offset + min_gap.
 TEST(PatchRelaxation, PairsBelowOffsetPushedPastOffsetPlusMinGap) {
