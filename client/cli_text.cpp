@@ -157,6 +157,14 @@ CLI::Validator one_of(const std::vector<std::string>& words) {
       allowed);
 }
 
+CLI::Validator non_empty(const std::string& absent) {
+  return CLI::Validator(
+      [absent](std::string& text) -> std::string {
+        return text.empty() ? "an empty value; leave the option out for " + absent : "";
+      },
+      "");
+}
+
 std::string parse_error_text(const CLI::ParseError& e) {
   // Escape first (one line), then cut every space-free run longer than an echo: CLI11 repeats
   // unexpected arguments and bad values whole.

@@ -59,6 +59,9 @@ std::string range_text(int64_t lo, int64_t hi);
 CLI::Validator decimal_integer(int64_t lo, int64_t hi, std::string allowed = "");
 CLI::Validator decimal_real(double lo, bool lo_open, double hi, const std::string& allowed);
 CLI::Validator one_of(const std::vector<std::string>& words);
+// Refuses an empty value (a check validator): for options whose absence means a default, so that
+// `--csv ''` is an error instead of the default in disguise. `absent` says what leaving it out does.
+CLI::Validator non_empty(const std::string& absent);
 
 // The one-line text of a CLI11 parse error (without "pd: error: "): CLI11's message with control
 // characters escaped and overlong user values (e.g. unexpected arguments) cut.

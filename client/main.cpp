@@ -72,10 +72,13 @@ std::size_t f_count(const CLI::App* command, const std::string& name) { return c
 
 // --farm, --server-key and --key of one farm command.
 void add_farm_options(CLI::App* command, std::string& farm, pd::cli::FarmKeyFiles& keys) {
-  command->add_option("--farm", farm, "Scheduler's client endpoint (default: $PD_FARM, else tcp://127.0.0.1:7401)");
+  command->add_option("--farm", farm, "Scheduler's client endpoint (default: $PD_FARM, else tcp://127.0.0.1:7401)")
+      ->check(pd::cli::non_empty("$PD_FARM or tcp://127.0.0.1:7401"));
   command->add_option("--server-key", keys.server_key,
-                      "The scheduler's public key file (PREFIX.pub); with --key, for a scheduler beyond loopback");
-  command->add_option("--key", keys.key, "This client's key pair (PREFIX.key from pd keys); with --server-key");
+                      "The scheduler's public key file (PREFIX.pub); with --key, for a scheduler beyond loopback")
+      ->check(pd::cli::non_empty("no encryption (loopback)"));
+  command->add_option("--key", keys.key, "This client's key pair (PREFIX.key from pd keys); with --server-key")
+      ->check(pd::cli::non_empty("no encryption (loopback)"));
 }
 
 // pd workers add --slurm N ... and pd workers remove --slurm ID (docs/deploy.md, "Slurm").
@@ -255,10 +258,12 @@ int main(int argc, char** argv) {
   auto* compare = app.add_subcommand(
       "compare", "Error measures between the levels of one or two frame files (prints or --json, writes CSV)");
   compare->add_option("file", cmp.file, "Frame file; its finest level with frames is the reference")->required();
-  compare->add_option("other", cmp.other, "A second frame file of the same scene (e.g. a direct run)");
+  compare->add_option("other", cmp.other, "A second frame file of the same scene (e.g. a direct run)")
+      ->check(pd::cli::non_empty("one frame file"));
   compare->add_option("--csv", cmp.csv,
                       "CSV file to write (default FILE.compare.csv); an existing file that is not a pd compare CSV "
-                      "is refused unless --force");
+                      "is refused unless --force")
+      ->check(pd::cli::non_empty("FILE.compare.csv"));
   compare->add_flag("--force", cmp.force, "Replace an existing CSV file even when pd compare did not write it");
   compare->add_flag("--json", cmp.json, "Print one JSON object on stdout instead of the table");
   compare->add_option("--seams", cmp.seams,

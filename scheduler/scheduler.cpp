@@ -330,8 +330,8 @@ void Scheduler::top_up_feed(const std::string& identity, Session& s) {
     if (s.fed_guides.count(g)) continue;
     std::optional<std::vector<double>> positions = store_->guide_frame(task.job, {task.level, g});
     if (!positions) return;  // cannot happen: just listed
-    if (!send_worker(identity, protocol::encode(protocol::GuideFrame{s.attempt, task.id, task.level, g, std::move(*positions)})))
-      return;
+    const protocol::GuideFrame m{s.attempt, task.id, task.level, g, std::move(*positions)};
+    if (!send_worker(identity, protocol::encode(m))) return;  // the rest on the next top-up, in order
     s.fed_guides.insert(g);
   }
 }
@@ -371,10 +371,9 @@ void Scheduler::feed_guide_frame(int64_t job, int level, int frame, const std::v
 }
 
 // A refinement task holds its worker while it waits for frames of the level below (a stitch also for
-// its guide frames). When every
-// worker is held and the task that would produce the awaited frame is ready but has no worker (its
-// own worker was lost, say), nothing can move: the waiting attempt is taken back (cancelled,
-// its task ready again) so that its worker takes the producer. The taken-back task later starts
+// its guide frames). When every worker is held and the task that would produce the awaited frame is
+// ready but has no worker (its own worker was lost, say), nothing can move: the waiting attempt is
+// taken back (cancelled, its task ready again) so that its worker takes the producer. The taken-back task later starts
 // again from its first frame and gives the same frames (the solve is deterministic).
 void Scheduler::preempt_starved() {
   for (const auto& [identity, s] : sessions_)

@@ -1,5 +1,7 @@
 #include "geometry/topology.h"
 
+#include <cstdio>
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -158,6 +160,23 @@ void validate_mesh(const TriMesh& mesh, const std::string& what) {
   for (Eigen::Index c = 0; c < F.size(); ++c) used[F.data()[c]] = 1;
   for (int i = 0; i < n; ++i)
     if (!used[i]) fail("vertex " + std::to_string(i) + " is not used by any face");
+}
+
+void validate_pose(const TriMesh& rest, const Positions& posed, const std::string& what) {
+  const Positions& V = rest.V;
+  const double diag2 = V.rows() > 0 ? (V.colwise().maxCoeff() - V.colwise().minCoeff()).squaredNorm() : 0.0;
+  const double min_area = 1e-12 * diag2;
+  for (int f = 0; f < rest.num_faces(); ++f) {
+    const Vec3 a = posed.row(rest.F(f, 0)).transpose(), b = posed.row(rest.F(f, 1)).transpose(),
+               c = posed.row(rest.F(f, 2)).transpose();
+    const double area = 0.5 * (b - a).cross(c - a).norm();
+    if (!(area >= min_area) || area == 0.0) {
+      char shown[64];
+      std::snprintf(shown, sizeof shown, "%.3g", area);
+      throw InputError(what + ": face " + std::to_string(f) + " has zero area in the posed shape (" + shown +
+                       " m^2; the rest mesh needs at least 1e-12 of its bounding-box diagonal squared)");
+    }
+  }
 }
 
 }  // namespace pd

@@ -33,4 +33,11 @@ Topology build_topology(const TriMesh& mesh);
 //   coordinates finite.
 void validate_mesh(const TriMesh& mesh, const std::string& what);
 
+// A posed shape of a valid rest mesh (the same faces, other positions): every face keeps an area of
+// at least 1e-12 times the rest mesh's bounding-box diagonal squared, the threshold validate_mesh
+// applies to the rest shape, so that no start state crushes a triangle (its membrane energy would be
+// infinite and the first step would fail). Throws InputError "<what>: face f has zero area in the
+// posed shape ..." naming the first such face.
+void validate_pose(const TriMesh& rest, const Positions& posed, const std::string& what);
+
 }  // namespace pd

@@ -108,6 +108,11 @@ Json parse_header(const Parts& parts, std::string& type) {
   if (parts[0].size() > kMaxMessageBytes)
     throw ProtocolError("message: part 0: " + std::to_string(parts[0].size()) + " bytes, over the limit of " +
                         std::to_string(kMaxMessageBytes));
+  // The parser takes a NUL for the end of its input: a header followed by a NUL and anything at all
+  // would be accepted. JSON text never holds a raw NUL.
+  if (const std::size_t nul = parts[0].find('\0'); nul != std::string::npos)
+    throw ProtocolError("message: part 0: a NUL byte at offset " + std::to_string(nul) +
+                        "; JSON text cannot hold one");
   Json h;
   try {
     h = Json::parse(parts[0], [](int depth, Json::parse_event_t, Json&) {

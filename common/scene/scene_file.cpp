@@ -481,6 +481,7 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
   if (posed) {
     transform.apply(*posed);
     scene_json::check_positions(posed_node->required("obj"), *posed, "initial");
+    validate_pose(obj.rest, *posed, node.file() + ": " + posed_node->required("obj").path());
     obj.initial = std::move(*posed);
   } else {
     obj.initial = obj.rest.V;

@@ -110,6 +110,10 @@ void check_document_limits(const std::string& text, const std::string& file) {
     throw InputError(file + ": the scene file has " + std::to_string(text.size()) +
                      " bytes, more than the limit of " + std::to_string(kMaxDocumentBytes) + " (16 MiB)");
   }
+  // JSON text never holds a raw NUL (inside a string it is written \u0000), and the parser takes one
+  // for the end of its input: a document followed by a NUL and anything at all would be accepted.
+  if (const std::size_t nul = text.find('\0'); nul != std::string::npos)
+    throw InputError(location(file, text, nul) + ": a NUL byte; JSON text cannot hold one (binary data in the file?)");
   int depth = 0;
   for (std::size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];

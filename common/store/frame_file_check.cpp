@@ -100,6 +100,14 @@ LevelCounts check_level_mesh(const File& f, int l) {
   std::vector<int> faces(3 * static_cast<size_t>(lv.num_faces));
   f.read_into(fp, H5T_NATIVE_INT, H5T_INTEGER, {lv.num_faces, 3}, faces.data(), 4);
   check_index_range(f, fp, faces.data(), faces.size(), 0, lv.num_vertices, "vertex index");
+  // A face that repeats a vertex is no triangle (what validate_mesh refuses in a scene's mesh): an
+  // exported OBJ would carry it to the user's tools.
+  for (long long k = 0; k < lv.num_faces; ++k) {
+    const int a = faces[3 * k], b = faces[3 * k + 1], c = faces[3 * k + 2];
+    if (a == b || a == c || b == c)
+      f.fail(fp, "face " + std::to_string(k) + " repeats a vertex (" + std::to_string(a) + ", " + std::to_string(b) +
+                     ", " + std::to_string(c) + ")");
+  }
 
   const std::string op = level_name("/hierarchy", l, "object_offsets");
   f.require_stored(f.open(op, H5T_INTEGER, {-1}, &d, 4).get(), op, d);

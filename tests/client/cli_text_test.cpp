@@ -71,6 +71,23 @@ TEST(CliText, ValidatorsRewriteToCanonicalDecimalForCli11) {
   }
 }
 
+TEST(CliText, AnEmptyValueIsRefusedWhereLeavingTheOptionOutMeansADefault) {
+  CLI::App app;
+  std::string csv = "unset";
+  app.add_option("--csv", csv)->check(non_empty("FILE.compare.csv"));
+  app.parse("--csv out.csv", false);
+  EXPECT_EQ(csv, "out.csv");
+  try {
+    std::vector<std::string> args = {"", "--csv"};  // CLI11 reads the vector from its back
+    app.parse(args);
+    ADD_FAILURE() << "an empty --csv accepted";
+  } catch (const CLI::ParseError& e) {
+    EXPECT_NE(parse_error_text(e).find("--csv: an empty value; leave the option out for FILE.compare.csv"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(CliText, ParseErrorTextCutsOverlongWords) {
   const CLI::ExtrasError e({std::string(5000, 'q')});
   const std::string text = parse_error_text(e);

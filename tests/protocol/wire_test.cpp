@@ -126,6 +126,11 @@ TEST(ProtocolWire, MessageRefusesBadEnvelopesNamingTheProblem) {
   EXPECT_EQ(open({R"({"v": 1})"}), "message: field 'type': missing");
   EXPECT_EQ(open({R"({"v": 1, "type": 4})"}), "message: field 'type': expected a string, got number 4");
   EXPECT_EQ(open(header_only("frame")), "(no ProtocolError thrown)");
+  // A whole header followed by a NUL and garbage: the parser alone would stop at the NUL.
+  std::string trailing = header_only("frame")[0];
+  trailing += std::string(1, '\0') + "garbage";
+  EXPECT_EQ(open({trailing}), "message: part 0: a NUL byte at offset " + std::to_string(header_only("frame")[0].size()) +
+                                  "; JSON text cannot hold one");
   // The parser's message quotes what it read: raw bytes are shown as '?' so the text stays sendable.
   const std::string garbage = open({"\xff\xfe\x01{"});
   EXPECT_TRUE(has(garbage, "message: part 0 is not JSON"));

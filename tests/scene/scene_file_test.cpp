@@ -342,6 +342,13 @@ TEST(SceneFileErrors, MalformedJsonReportsLineAndColumn) {
   expect_text_error(text, {kFile + ":4:13:", "invalid JSON", "unexpected ','"});
 }
 
+TEST(SceneFileErrors, AValidSceneFollowedByANulByteAndGarbageIsRefusedWhereTheNulIs) {
+  const std::string scene = valid_scene().dump();  // one line
+  std::string text = scene;
+  text += std::string(1, '\0') + "{garbage";
+  expect_text_error(text, {kFile + ":1:" + std::to_string(scene.size() + 1) + ":", "a NUL byte"});
+}
+
 TEST(SceneFileErrors, NumberTooLargeForADoubleReportsLineAndColumn) {
   expect_text_error("{\"format_version\": 1,\n \"time_step\": 1e400}", {kFile + ":2:15:", "1e400"});
 }

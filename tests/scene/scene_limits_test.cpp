@@ -258,6 +258,21 @@ TEST(SceneFileLimits, VerticesBeyondTenKilometresAfterTheTransformAreRefused) {
   expect_error(s, {"objects[0].initial_positions.obj: initial vertex 3 is at"}, dir.path());
 }
 
+TEST(SceneFileLimits, APosedShapeCollapsedToAPointIsRefusedAsDegenerate) {
+  TempDir dir;
+  TriMesh rest = make_rectangle(1.0, 1.0, 1, 1);
+  Positions posed = Positions::Constant(rest.V.rows(), 3, 1e-160);  // within range, every face crushed
+  write_obj(dir.path() + "/posed.obj", posed, rest.F);
+  json s = valid_scene();
+  s["objects"][0]["mesh"]["cells"] = {1, 1};
+  s["objects"][0]["initial_positions"] = {{"obj", "posed.obj"}};
+  expect_error(s, {kFile + ": objects[0].initial_positions.obj: face 0 has zero area in the posed shape"}, dir.path());
+  posed = rest.V;
+  posed.row(1) = posed.row(0);  // the boundary edge 0-1 shrunk to nothing: its face is crushed
+  write_obj(dir.path() + "/posed.obj", posed, rest.F);
+  expect_error(s, {"objects[0].initial_positions.obj: face ", "has zero area in the posed shape"}, dir.path());
+}
+
 TEST(SceneFileLimits, ObjectAndPinGroupCountsAreBounded) {
   json s = valid_scene();
   json sheet = s["objects"][0];

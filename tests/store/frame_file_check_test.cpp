@@ -168,6 +168,12 @@ TEST_F(FrameFileCheckTest, FaceIndexOutsideTheVertexCountIsRefused) {
   EXPECT_EQ(open_error(), prefix("/hierarchy/0/faces") + "vertex index -1 (entry 7) outside [0, 6)");
 }
 
+TEST_F(FrameFileCheckTest, AFaceThatRepeatsAVertexIsRefused) {
+  const int zero = 0;
+  for (hsize_t k = 0; k < 3; ++k) RawFile(path_).set("/hierarchy/0/faces", {1, k}, H5T_NATIVE_INT, &zero);
+  EXPECT_EQ(open_error(), prefix("/hierarchy/0/faces") + "face 1 repeats a vertex (0, 0, 0)");
+}
+
 TEST_F(FrameFileCheckTest, DoneFlagOtherThanZeroOrOneIsRefused) {
   const uint8_t two = 2;
   RawFile(path_).set("/levels/0/done", {1}, H5T_NATIVE_UINT8, &two);
