@@ -53,10 +53,11 @@ struct GraphOptions {
 };
 
 // The default stitch width: with the smootherstep ramp (progressive/level_task.cpp) 8 frames kept every
-// seam and junction the bench measured at its K = 1 pop (docs/progressive.md, "Stitching a seam"),
-// for about 3-9 of the level's steps per seam; 16 frames, the default until then, cost twice that
-// and kept 64 workers below 30x on flag-large-10s (docs/performance.md).
-constexpr int kDefaultStitchFrames = 8;
+// seam and junction of the seam bench at its K = 1 pop (docs/progressive.md, "Stitching a seam") but
+// left 2 of 14 of drape-gear's visible at K = 8 (its finest level's seam 113 and junction 138); 10
+// left none there, and cost 2 frames per seam more: pd plan puts flag-large-10s on 64 workers at
+// 33.4x one worker (35.8x at 8, 28.7x at 16, the default until the ramp changed).
+constexpr int kDefaultStitchFrames = 10;
 // The widest stitch a job may ask for: 1 000 frames is 10 s of a shot at 100 fps, and a stitch's guide
 // frames are kept in the task store (farm.sqlite) until the job is removed.
 constexpr int kMaxStitchFrames = 1000;

@@ -356,7 +356,7 @@ TEST(PdCli, CompareReportsEachLevelAgainstTheFinestAndWritesCsv) {
   EXPECT_EQ(rows, 3 * 4 + 4);  // three progressive levels and one direct level, frames 0..3
   EXPECT_EQ(run_pd("compare " + dir + "/missing.h5").exit_code, 2);
   // An empty --csv or second file is an error, not the default in disguise.
-  for (const std::string& args : {" --csv ''", " ''"}) {
+  for (const char* args : {" --csv ''", " ''"}) {
     const CliResult empty = run_pd("compare " + dir + "/p.h5" + args);
     EXPECT_EQ(empty.exit_code, 2) << args;
     EXPECT_NE(empty.output.find("an empty value; leave the option out"), std::string::npos) << empty.output;
