@@ -60,11 +60,24 @@ void Scheduler::on_report(const std::string& identity, protocol::Hello& m) {
   // Refused before anything is stored (on_worker_message turns the throw into a Refused).
   if (!m.slurm_job.empty() && !farm::valid_slurm_job_id(m.slurm_job))
     throw InputError("field 'slurm_job': expected a Slurm job id (123 or 123_4), got '" + m.slurm_job.substr(0, 40) + "'");
+  // A name is one worker's while its session is alive: a hello naming a worker heard from within the
+  // liveness time is refused instead of evicting it (and losing its attempt), whoever sends it. A
+  // worker that restarted before its old session timed out is refused too; it says hello again when
+  // no heartbeat answers (worker.cpp) and gets in once the old session is lost, kLiveness heartbeats
+  // after its last message.
+  const auto now = Clock::now();
+  for (const auto& [other, o] : sessions_) {
+    if (other == identity || o.name != m.name || now - o.last_heard > kLiveness * heartbeat_) continue;
+    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(now - o.last_heard).count();
+    throw InputError("field 'name': worker '" + m.name.substr(0, 80) + "' is connected (heard " + std::to_string(ms) +
+                     " ms ago); a worker of that name is let in once that session has been silent for " +
+                     std::to_string(kLiveness) + " heartbeats");
+  }
   if (sessions_.count(identity)) lose(identity, "said hello again");
   Session s;
   s.worker = store_->add_worker(m.name, m.host, m.version, m.cores);
-  // The same worker (by name) on a new connection: it restarted, or reconnected before its old
-  // session timed out. The old session's attempt is lost.
+  // The same worker (by name) on a new connection whose old session went silent: it restarted, or
+  // reconnected. The old session's attempt is lost.
   for (const auto& [other, o] : sessions_) {
     if (o.worker != s.worker) continue;
     lose(other, "connected again as " + m.name);

@@ -296,6 +296,37 @@ TEST_F(FarmTest, BadWorkerMessagesAreRefusedAndTheSchedulerKeepsServing) {
   EXPECT_NE(message.find(blas_kernel_in_use()), std::string::npos) << message;
 }
 
+// A hello that names a connected worker is refused, whoever sends it: it used to evict that worker's
+// session and lose its attempt (issue 47, item 4). The worker runs its job to the end, never lost.
+TEST_F(FarmTest, AHelloWithTheNameOfAConnectedWorkerIsRefusedAndTheWorkerKeepsItsAttempt) {
+  Farm& farm = start_farm(1, "farm_name_taken");
+  constexpr int kFrames = 150;  // the flag: about 10 s on one worker, time enough to catch a running task
+  const int64_t job = submit(farm, {scene_path("flag.json"), "--frames", std::to_string(kFrames)});
+  std::string name;
+  ASSERT_TRUE(eventually(60s, [&] {
+    const json status = job_status(farm, job);
+    for (const json& t : status.at("tasks"))
+      if (t.at("state") == "running" && t.at("kind") == "level") name = t.at("worker").get<std::string>();
+    return !name.empty() || status.at("state") == "done";
+  }));
+  ASSERT_FALSE(name.empty()) << "the job ended before a level task was seen running";
+  zmq::context_t ctx(1);
+  zmq::socket_t peer(ctx, zmq::socket_type::dealer);
+  farm::configure_socket(peer);
+  peer.connect(farm.workers_endpoint());
+  protocol::Hello hello;
+  hello.name = name;
+  hello.host = "elsewhere";
+  hello.version = "0";
+  hello.cores = 1;
+  const std::string why = refusal_of(peer, protocol::encode(hello));
+  EXPECT_NE(why.find("field 'name': worker '" + name + "' is connected"), std::string::npos) << why;
+  wait_until_done(farm, job, kShortJob);
+  expect_every_level_complete(job_status(farm, job), kFrames);
+  EXPECT_TRUE(test::log_events(farm.scheduler_log(), "worker_lost").empty()) << test::read_file_text(farm.scheduler_log());
+  for (const json& t : job_status(farm, job).at("tasks")) EXPECT_EQ(t.at("attempts").get<int>(), 1) << t.dump();
+}
+
 TEST_F(FarmTest, BadScenesJobsOptionsAndUnreachableFarmsExitTwoWithClearMessages) {
   Farm& farm = start_farm(0, "farm_bad");
   const std::string dir = farm.dir();
