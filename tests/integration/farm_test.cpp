@@ -324,7 +324,8 @@ TEST_F(FarmTest, AHelloWithTheNameOfAConnectedWorkerIsRefusedAndTheWorkerKeepsIt
   wait_until_done(farm, job, kShortJob);
   expect_every_level_complete(job_status(farm, job), kFrames);
   EXPECT_TRUE(test::log_events(farm.scheduler_log(), "worker_lost").empty()) << test::read_file_text(farm.scheduler_log());
-  for (const json& t : job_status(farm, job).at("tasks")) EXPECT_EQ(t.at("attempts").get<int>(), 1) << t.dump();
+  const json done = job_status(farm, job);  // kept: a range-for over a temporary's member reads freed memory
+  for (const json& t : done.at("tasks")) EXPECT_EQ(t.at("attempts").get<int>(), 1) << t.dump();
 }
 
 TEST_F(FarmTest, BadScenesJobsOptionsAndUnreachableFarmsExitTwoWithClearMessages) {
