@@ -222,7 +222,9 @@ CLI::App* add_plan_subcommand(CLI::App& app, PlanArgs& args) {
   const CLI::Validator seconds = decimal_real(0.0, false, 1e9, "seconds, >= 0 and <= 1e9");
   cmd->add_option("--subsets", args.subsets, "Time subsets K per refinement level (default 1)")
       ->transform(decimal_integer(1, 2147483647));
-  cmd->add_option("--stitch", args.stitch, "Frames each seam is stitched over, as pd submit --stitch (default " + std::to_string(farm::kDefaultStitchFrames) + ")")
+  cmd->add_option("--stitch", args.stitch,
+                  "Frames each seam is stitched over, as pd submit --stitch (default " +
+                      std::to_string(farm::kDefaultStitchFrames) + ")")
       ->transform(decimal_integer(0, farm::kMaxStitchFrames));
   cmd->add_option("--frames", args.frames,
                   "Frames N to plan (default 0: the file's); a longer shot is planned with the file's step costs")

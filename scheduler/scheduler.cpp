@@ -325,7 +325,8 @@ void Scheduler::top_up_feed(const std::string& identity, Session& s) {
   // A stitch's step progress -> progress + 1 is guided toward guide frame progress + 1.
   const int first = std::max(task.first + 1, s.progress + 1);
   const int last = std::min(task.last, s.progress + kFeedWindow);
-  if (last < first) return;
+  if (last < first || std::distance(s.fed_guides.lower_bound(first), s.fed_guides.end()) == last - first + 1)
+    return;  // every guide frame of the window was sent already: no store query on each report
   for (int g : store_->stored_guide_frames(task.job, task.level, first, last)) {
     if (s.fed_guides.count(g)) continue;
     std::optional<std::vector<double>> positions = store_->guide_frame(task.job, {task.level, g});

@@ -102,20 +102,20 @@ void TaskRunner::feed(const protocol::BelowFrame& frame) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (frame.attempt != attempt_ || cancelled_) return;
   below_[frame.frame] = to_vector(frame.positions);
-  below_arrived_.notify_all();
+  frame_arrived_.notify_all();
 }
 
 void TaskRunner::feed(const protocol::GuideFrame& frame) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (frame.attempt != attempt_ || cancelled_) return;
   guides_[frame.frame] = to_vector(frame.positions);
-  below_arrived_.notify_all();
+  frame_arrived_.notify_all();
 }
 
 void TaskRunner::cancel() {
   std::lock_guard<std::mutex> lock(mutex_);
   cancelled_ = true;
-  below_arrived_.notify_all();
+  frame_arrived_.notify_all();
 }
 
 int64_t TaskRunner::attempt() const {
@@ -155,7 +155,7 @@ void TaskRunner::post(protocol::Parts parts) {
 
 Eigen::VectorXd TaskRunner::wait_below(int t) {
   std::unique_lock<std::mutex> lock(mutex_);
-  below_arrived_.wait(lock, [&] { return cancelled_ || below_.count(t) != 0; });
+  frame_arrived_.wait(lock, [&] { return cancelled_ || below_.count(t) != 0; });
   if (cancelled_) throw Cancelled{};
   // The solve asks for frames t and t - 1 of each step in increasing t (progressive/level_task.h):
   // nothing before t - 1 is asked for again, so an attempt holds a window of frames, not its range.
@@ -165,7 +165,7 @@ Eigen::VectorXd TaskRunner::wait_below(int t) {
 
 Eigen::VectorXd TaskRunner::wait_guide(int f) {
   std::unique_lock<std::mutex> lock(mutex_);
-  below_arrived_.wait(lock, [&] { return cancelled_ || guides_.count(f) != 0; });
+  frame_arrived_.wait(lock, [&] { return cancelled_ || guides_.count(f) != 0; });
   if (cancelled_) throw Cancelled{};
   // The stitch asks for each guide frame once, in increasing f (progressive/level_task.cpp).
   Eigen::VectorXd g = std::move(guides_.at(f));

@@ -81,7 +81,7 @@ class TaskRunner {
   bool refuse_vertical_starts_ = false;
   int refuse_vertical_starts_before_ = 0;
   mutable std::mutex mutex_;
-  std::condition_variable below_arrived_;
+  std::condition_variable frame_arrived_;
   std::map<int, Eigen::VectorXd> below_;  // frames of level l-1 fed to the running attempt
   std::map<int, Eigen::VectorXd> guides_;  // a stitch's guide frames fed to the running attempt
   std::vector<protocol::Parts> outbox_;

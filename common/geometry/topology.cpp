@@ -7,12 +7,36 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 
 #include "util/input_error.h"
 
 namespace pd {
 namespace {
+
+// The zero-area threshold of a mesh: 1e-12 of its bounding-box diagonal squared, so that the check
+// means the same for a millimetre patch and a ten-metre sail.
+double zero_area_threshold(const Positions& V) {
+  const double diag2 = V.rows() > 0 ? (V.colwise().maxCoeff() - V.colwise().minCoeff()).squaredNorm() : 0.0;
+  return 1e-12 * diag2;
+}
+
+struct ZeroAreaFace {
+  int face;
+  double area;  // m^2
+};
+
+// The first face of F whose area at positions X is below min_area, or exactly 0 (for when every
+// vertex coincides and the threshold itself is 0).
+std::optional<ZeroAreaFace> first_zero_area_face(const Positions& X, const Faces& F, double min_area) {
+  for (int f = 0; f < F.rows(); ++f) {
+    const Vec3 a = X.row(F(f, 0)).transpose(), b = X.row(F(f, 1)).transpose(), c = X.row(F(f, 2)).transpose();
+    const double area = 0.5 * (b - a).cross(c - a).norm();
+    if (!(area >= min_area) || area == 0.0) return ZeroAreaFace{f, area};
+  }
+  return std::nullopt;
+}
 
 // One side of an edge as seen from one face: the edge from F(face, k) to F(face, (k + 1) % 3).
 // Sorting these by (undirected edge, face) groups each edge's faces together in O(m log m), with the
@@ -130,16 +154,8 @@ void validate_mesh(const TriMesh& mesh, const std::string& what) {
     if (b == c) fail("face " + std::to_string(f) + " repeats vertex " + std::to_string(b));
   }
 
-  // The zero-area threshold scales with the mesh (bbox diagonal squared), so the check means the same
-  // for a millimetre patch and a ten-metre sail. area == 0 is also rejected, for the case where all
-  // vertices coincide and the threshold itself is 0.
-  const double diag2 = n > 0 ? (V.colwise().maxCoeff() - V.colwise().minCoeff()).squaredNorm() : 0.0;
-  const double min_area = 1e-12 * diag2;
-  for (int f = 0; f < m; ++f) {
-    const Vec3 a = V.row(F(f, 0)).transpose(), b = V.row(F(f, 1)).transpose(), c = V.row(F(f, 2)).transpose();
-    const double area = 0.5 * (b - a).cross(c - a).norm();
-    if (!(area >= min_area) || area == 0.0) fail("face " + std::to_string(f) + " has zero area");
-  }
+  if (const std::optional<ZeroAreaFace> z = first_zero_area_face(V, F, zero_area_threshold(V)))
+    fail("face " + std::to_string(z->face) + " has zero area");
 
   const std::vector<HalfEdge> half = sorted_half_edges(F);
   for_each_edge(half, [&](std::size_t begin, std::size_t end) {
@@ -163,19 +179,11 @@ void validate_mesh(const TriMesh& mesh, const std::string& what) {
 }
 
 void validate_pose(const TriMesh& rest, const Positions& posed, const std::string& what) {
-  const Positions& V = rest.V;
-  const double diag2 = V.rows() > 0 ? (V.colwise().maxCoeff() - V.colwise().minCoeff()).squaredNorm() : 0.0;
-  const double min_area = 1e-12 * diag2;
-  for (int f = 0; f < rest.num_faces(); ++f) {
-    const Vec3 a = posed.row(rest.F(f, 0)).transpose(), b = posed.row(rest.F(f, 1)).transpose(),
-               c = posed.row(rest.F(f, 2)).transpose();
-    const double area = 0.5 * (b - a).cross(c - a).norm();
-    if (!(area >= min_area) || area == 0.0) {
-      char shown[64];
-      std::snprintf(shown, sizeof shown, "%.3g", area);
-      throw InputError(what + ": face " + std::to_string(f) + " has zero area in the posed shape (" + shown +
-                       " m^2; the rest mesh needs at least 1e-12 of its bounding-box diagonal squared)");
-    }
+  if (const std::optional<ZeroAreaFace> z = first_zero_area_face(posed, rest.F, zero_area_threshold(rest.V))) {
+    char shown[64];
+    std::snprintf(shown, sizeof shown, "%.3g", z->area);
+    throw InputError(what + ": face " + std::to_string(z->face) + " has zero area in the posed shape (" + shown +
+                     " m^2; the rest mesh needs at least 1e-12 of its bounding-box diagonal squared)");
   }
 }
 

@@ -135,7 +135,7 @@ struct RelaxationReport {
 // centimetres whose line search (CCD) lets them move nothing, round after round, at pairs left
 // 1e-10 to 1e-8 m beyond the offset. Seen when safe upsampling opened a fine level in steady contact
 // (cube-trampoline-large, level 0 -> 1 at frame 50): 55 patches, every one of them unsatisfied
-// after all 8 rounds (160 iterations, 0.4-0.6 s each), 23.4 s of a 23.8 s upsampling for the
+// after all 8 rounds (160 iterations, 0.35-0.98 s each), 23.4 s of a 23.8 s upsampling for the
 // same unresolved gaps; stopping at the stall ends each patch after one or two rounds.
 // Throws std::invalid_argument for: missing pointers or inconsistent sizes (rest / x rows vs
 // vertex_object), a free vertex out of [0, n) (duplicates are fine), min_gap <= 0 or not finite,
