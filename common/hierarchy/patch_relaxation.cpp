@@ -154,7 +154,8 @@ Setup make_setup(const RelaxationMesh& mesh, int n, std::vector<char> mask, cons
   return s;
 }
 
-// The potential: anchor + membrane (faces grouped by weight) + barrier. The anchor pulls toward
+// The potential: anchor + membrane (faces grouped by weight; `start_shaped` faces at weight 1 with
+// the start positions as their reference instead of the rest shape) + barrier. The anchor pulls toward
 // `anchor_at` (stacked, m). The barrier contacts at the mesh's offset, except for the pairs that
 // start within it (a freshly split edge is shorter than the offset), which contact at distance 0
 // (BarrierPotential::set_thin_pairs): the barrier is then finite at the start, and no pair that
@@ -162,16 +163,18 @@ Setup make_setup(const RelaxationMesh& mesh, int n, std::vector<char> mask, cons
 // offset), the same for both kinds of pair. Returns the barrier so the caller can change kappa.
 BarrierPotential* build_potential(const Setup& s, const std::map<double, std::vector<int>>& weighted_faces,
                                   double dhat, double kappa, double anchor, const Eigen::VectorXd& anchor_at,
-                                  IncrementalPotential& ip) {
+                                  IncrementalPotential& ip, const std::vector<int>& start_shaped = {}) {
   ip = IncrementalPotential();
   ip.add_term(std::make_unique<InertiaTerm>(Eigen::VectorXd::Constant(3 * s.n, anchor * kMembraneScale)));
-  for (const auto& [weight, faces] : weighted_faces) {
-    if (faces.empty()) continue;
+  const auto add_membrane = [&](const std::vector<int>& faces, const Positions& reference, double weight) {
+    if (faces.empty()) return;
     Faces F(static_cast<Eigen::Index>(faces.size()), 3);
     for (std::size_t i = 0; i < faces.size(); ++i) F.row(static_cast<Eigen::Index>(i)) = s.mesh->primitives->faces.row(faces[i]);
     ip.add_term(std::make_unique<NeoHookeanMembrane>(
-        F, *s.mesh->rest, MembraneMaterialParams::from(weight * kYoungs, kPoisson, kThickness)));
-  }
+        F, reference, MembraneMaterialParams::from(weight * kYoungs, kPoisson, kThickness)));
+  };
+  for (const auto& [weight, faces] : weighted_faces) add_membrane(faces, *s.mesh->rest, weight);
+  add_membrane(start_shaped, as_rows(s.start), 1.0);
   ContactSettings cs;
   cs.dhat = dhat - s.mesh->offset;  // activation measured from the offset
   cs.offset = s.mesh->offset;
@@ -314,6 +317,8 @@ RelaxationReport relax_gaps(const RelaxationMesh& mesh, const std::vector<int>& 
   if (!(settings.min_gap > 0.0) || !std::isfinite(settings.min_gap))
     throw std::invalid_argument("relax_gaps: min_gap must be finite and > 0 (m)");
   check_counts(settings.max_stiffness_rounds, settings.newton_iterations_per_round, settings.anchor_stiffness, who);
+  if (std::isnan(settings.keep_start_shape_within))
+    throw std::invalid_argument("relax_gaps: keep_start_shape_within must not be NaN");
 
   const ContactPrimitives& prims = *mesh.primitives;
   const double reach = kGapReachFactor * settings.min_gap;
@@ -332,11 +337,22 @@ RelaxationReport relax_gaps(const RelaxationMesh& mesh, const std::vector<int>& 
     return report;
   }
 
+  // The membrane's reference per face (header, GapRelaxationSettings::keep_start_shape_within).
+  const Faces& F = prims.faces;
+  std::vector<int> reshaped, start_shaped;
+  for (int f : s.membrane_faces) {
+    const Vec<9> X = gather_face(*mesh.rest, F, f);
+    const Eigen::Vector2d sigma =
+        principal_stretches(gather_face(x, F, f), strain_limit_rest(X.segment<3>(0), X.segment<3>(3), X.segment<3>(6)));
+    const double k = settings.keep_start_shape_within;
+    const bool keep = sigma[0] <= k && sigma[1] * k >= 1.0 && !rest_degenerate(x, F, f);
+    (keep ? start_shaped : reshaped).push_back(f);
+  }
   IncrementalPotential ip;
   const double reach_b = dhat - mesh.offset;
   double kappa = kStartKappa * kMembraneScale / (reach_b * reach_b);  // J/m^4 (header: "Starting kappa")
   BarrierPotential* barrier =
-      build_potential(s, {{1.0, s.membrane_faces}}, dhat, kappa, settings.anchor_stiffness, s.start, ip);
+      build_potential(s, {{1.0, reshaped}}, dhat, kappa, settings.anchor_stiffness, s.start, ip, start_shaped);
   NewtonSettings ns = newton_settings(s, dhat, settings.newton_iterations_per_round);
   record_iterates(s, x, iterates, ns);
   HessianAssembly hessian;

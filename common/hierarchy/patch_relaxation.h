@@ -84,6 +84,14 @@ struct GapRelaxationSettings {
   int newton_iterations_per_round = 20; // (>= 1)
   double anchor_stiffness = 1e-2;       // anchor per vertex, in units of E * thickness (>= 0)
   bool stop_when_stalled = true;        // end the rounds when one stalls (relax_gaps, "Stalls")
+  // The membrane's reference per face: a face whose principal stretches from its rest triangle
+  // (sigma_max, sigma_min of relax_strain) start within [1 / keep_start_shape_within,
+  // keep_start_shape_within] keeps its start shape as its reference (no stress at the start); any
+  // other face (crushed, shrunk, or stretched past it) is pulled toward its rest shape, the membrane
+  // "expanding ill-shaped elements". So the solve opens gaps and reshapes distorted triangles without
+  // releasing the stress the patch starts with. 1 or less: every face toward its rest shape (an
+  // undeformed face's start shape is its rest shape), PSQ 4.4.3 as written (relax_gaps, "Reference").
+  double keep_start_shape_within = 2.0;
 };
 
 struct RelaxationReport {
@@ -117,6 +125,21 @@ struct RelaxationReport {
 // the equilibrium beyond offset + min_gap, and the barrier never pushes a pair beyond offset +
 // 2 min_gap (no over-shoot beyond that).
 //
+// Reference: the membrane of E(x) is measured from each face's rest triangle only for the faces
+// settings.keep_start_shape_within leaves out (the distorted ones); the others are measured from
+// their start triangle. Why: with every face measured from its rest shape, a patch of a sheet that
+// is stretched where it rests in contact (cube-trampoline-large, level 0 -> 1 at frame 50: the sheet
+// under the cube) has its whole tension as a driving force, balanced at the start by contact and by
+// the level's forces that E(x) leaves out (gravity, bending, the cube's weight). Newton then proposed
+// steps of 1-6 cm pressing the patch into the contact it rests on, the CCD line search cut each to
+// 1e-3..1e-1 of itself, and 20 iterations a round closed the smallest gap from 4.5e-7 to 3e-9 m
+// instead of opening it. Measured with distorted = outside [1/2, 2] (pd_bench_upsample_frame, against
+// every face toward its rest shape): there the upsampling 6.4 -> 0.6 s, its smallest gap 2e-8 ->
+// 8.5e-7 m, pairs left under the wanted gap 10 -> 8; level 1 -> 2 at frame 50 4.8 -> 1.1 s, 1e-11 ->
+// 1.6e-6 m, 10 -> 0; refused upsamplings of frames 30 / 50 / 70 over its three levels 5 -> 3 of 9,
+// of cube-impact-sheet's level 0 at frames 26-36 5 -> 1 of 11 (docs/performance.md). Keeping only
+// faces of nearly the rest quality (whatever their size) left restored vertices that had not opened
+// up to 3 cm from their targets (a sheet on a sphere).
 // Starting kappa: kappa_0 = 1e-2 (E t) / dhat_b^2 (J/m^4), then doubled per round. In a one-pair
 // model against a resisting stiffness k (N/m), the barrier's push -kappa b'(s) 2 d at d = dhat_b / 2
 // (the wanted distance offset + min_gap when offset = 0) is 4.33 kappa dhat_b^3, so it holds a
