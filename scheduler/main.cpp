@@ -25,7 +25,10 @@ namespace {
 
 std::atomic<bool> g_stop{false};
 
+std::atomic<bool> g_reload_keys{false};
+
 void on_signal(int) { g_stop = true; }
+void on_hangup(int) { g_reload_keys = true; }  // SIGHUP: reload --authorized-keys (systemd's ExecReload)
 
 // --check-hierarchy: exit 0 when the file is a hierarchy with that hash and level count, 2 with the
 // reason on stderr when not. Its memory is capped first (4 GiB of address space): a crafted file
@@ -129,6 +132,9 @@ int main(int argc, char** argv) {
   sa.sa_handler = on_signal;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  struct sigaction hup = {};
+  hup.sa_handler = on_hangup;
+  sigaction(SIGHUP, &hup, nullptr);
   std::unique_ptr<pd::scheduler::Scheduler> scheduler;
   try {
     if (parent > 0) pd::exit_with_parent(parent, SIGTERM);
@@ -152,7 +158,7 @@ int main(int argc, char** argv) {
                                       {"curve", !options.key_file.empty()}};
     std::printf("%s\n", listening.dump().c_str());
     std::fflush(stdout);
-    scheduler->run(g_stop);
+    scheduler->run(g_stop, &g_reload_keys);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "pd-scheduler: error: %s\n", e.what());
     return 1;

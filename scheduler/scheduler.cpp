@@ -114,8 +114,9 @@ void Scheduler::event(const std::string& kind, int64_t job, int64_t task, int64_
   if (persist) store_->log_event(job, task, worker, kind, message);
 }
 
-void Scheduler::run(const std::atomic<bool>& stop) {
+void Scheduler::run(const std::atomic<bool>& stop, std::atomic<bool>* reload) {
   while (!stop) {
+    if (reload && reload->exchange(false)) reload_keys();
     try {
       turn();
     } catch (const zmq::error_t& e) {
@@ -123,6 +124,22 @@ void Scheduler::run(const std::atomic<bool>& stop) {
       // sees `stop`. Anything else is a real failure.
       if (e.num() != EINTR) throw;
     }
+  }
+}
+
+void Scheduler::reload_keys() {
+  if (!zap_) {
+    event("keys_reload_ignored", 0, 0, 0, "no --authorized-keys: this scheduler admits loopback peers without keys");
+    return;
+  }
+  try {
+    const std::vector<std::string> keys = farm::read_authorized_keys(options_.authorized_keys_file);
+    zap_->set_authorized(keys);
+    event("keys_reloaded", 0, 0, 0,
+          options_.authorized_keys_file + ": " + std::to_string(keys.size()) +
+              " key(s) admitted from now on (connected peers keep their sessions)");
+  } catch (const std::exception& e) {
+    event("keys_reload_failed", 0, 0, 0, std::string(e.what()) + "; the keys in use are kept");
   }
 }
 

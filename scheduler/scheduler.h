@@ -85,8 +85,15 @@ class Scheduler {
   std::string workers_endpoint() const;
   std::string clients_endpoint() const;
 
-  // Serves until `stop` becomes true.
-  void run(const std::atomic<bool>& stop);
+  // Serves until `stop` becomes true. Whenever `reload_keys` (if given) is true, it is reset and the
+  // keys are reloaded (reload_keys() below) within a loop turn (a quarter heartbeat).
+  void run(const std::atomic<bool>& stop, std::atomic<bool>* reload_keys = nullptr);
+
+  // Reads --authorized-keys again (SIGHUP): handshakes from then on admit the file's keys; peers
+  // already connected keep their sessions. A file that cannot be read or lists no valid key keeps
+  // the keys in use. Logged as keys_reloaded / keys_reload_failed (or keys_reload_ignored without
+  // CURVE).
+  void reload_keys();
 
  private:
   // worker_reports.cpp

@@ -133,18 +133,32 @@ protocol::SlurmAccepted SlurmPool::add(const protocol::AddSlurmWorkers& m, doubl
   return a;
 }
 
+// Only Slurm jobs this scheduler submitted (rows not `external`) are ever cancelled: a worker's hello
+// only claims a Slurm job id, and any peer of the workers socket can claim any id (a hello naming
+// 987654321_7 followed by this request made a scheduler started without Slurm run scancel on it).
 protocol::SlurmAccepted SlurmPool::remove(const protocol::RemoveSlurmWorkers& m, const Busy& busy, double now) {
+  if (!enabled())
+    throw InputError("this scheduler was started without --slurm-script: it has no Slurm workers to remove");
   if (!farm::valid_slurm_job_id(m.slurm_job))
     throw InputError("--slurm: expected a Slurm job id (123) or array task id (123_4), got '" +
                      m.slurm_job.substr(0, 40) + "'");
   const bool whole_array = m.slurm_job.find('_') == std::string::npos;
   std::vector<std::string> cancel_now, later;
+  int claimed = 0;  // matching rows known only from a worker's hello
   for (const SlurmWorkerRow& r : store_.active()) {
     if (r.id != m.slurm_job && !(whole_array && r.array_job == m.slurm_job)) continue;
+    if (r.external) {
+      ++claimed;
+      continue;
+    }
     if (r.draining && !m.now) continue;  // already being drained
     store_.set_draining(r.id, true);
     (m.now || r.worker.empty() || !busy(r.worker) ? cancel_now : later).push_back(r.id);
   }
+  if (cancel_now.empty() && later.empty() && claimed > 0)
+    throw InputError("Slurm job " + m.slurm_job +
+                     " was not submitted by this scheduler (a worker only named it when it connected): it "
+                     "cancels only the Slurm workers it started; cancel that job with scancel yourself");
   if (cancel_now.empty() && later.empty())
     throw InputError("no queued or running Slurm worker " + m.slurm_job + " (pd workers lists them)");
   if (!cancel_now.empty()) scancel(cancel_now, "pd workers remove");

@@ -287,6 +287,13 @@ void ZapAuthenticator::serve() {
   }
 }
 
+void ZapAuthenticator::set_authorized(const std::vector<std::string>& authorized) {
+  std::set<std::string> keys;
+  for (const std::string& k : authorized) keys.insert(binary_key(k));  // throws before anything changes
+  const std::lock_guard<std::mutex> lock(authorized_mutex_);
+  authorized_ = std::move(keys);
+}
+
 void ZapAuthenticator::answer(const std::vector<zmq::message_t>& request) {
   ZapDecision d;
   std::string request_id, text;
@@ -307,7 +314,7 @@ void ZapAuthenticator::answer(const std::vector<zmq::message_t>& request) {
     } else if (!curve) {
       d.status = 400;
       text = "only CURVE clients are admitted";
-    } else if (authorized_.count(key) == 0) {
+    } else if (const std::lock_guard<std::mutex> lock(authorized_mutex_); authorized_.count(key) == 0) {
       d.status = 400;
       text = "client key not authorized";
     } else {

@@ -17,6 +17,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <string>
@@ -108,6 +109,11 @@ class ZapAuthenticator {
   ZapAuthenticator(const ZapAuthenticator&) = delete;
   ZapAuthenticator& operator=(const ZapAuthenticator&) = delete;
 
+  // Replaces the admitted keys (Z85, as the constructor's) for every handshake from now on: the
+  // scheduler's key reload (SIGHUP). Peers already connected keep their sessions (CURVE
+  // authenticates a connection once, at its handshake). Any thread.
+  void set_authorized(const std::vector<std::string>& authorized);
+
   // Handshakes answered 200 and 400/500 so far.
   int64_t accepted() const { return accepted_.load(); }
   int64_t refused() const { return refused_.load(); }
@@ -116,7 +122,8 @@ class ZapAuthenticator {
   void serve();  // the thread's loop
   void answer(const std::vector<zmq::message_t>& request);
 
-  std::set<std::string> authorized_;  // 32-byte binary keys
+  mutable std::mutex authorized_mutex_;  // guards authorized_ (the handler thread reads, set_authorized writes)
+  std::set<std::string> authorized_;     // 32-byte binary keys
   std::string domain_;
   Observer observer_;
   zmq::socket_t handler_;   // REP on inproc://zeromq.zap.01, used by the thread only

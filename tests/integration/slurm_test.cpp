@@ -173,6 +173,18 @@ TEST_F(SlurmTest, TwoSlurmWorkersRunAJobWithTheFramesOfHandStartedWorkersAndAreD
   const std::string slurm_file = farm.dir() + "/slurm.h5";
   test::fetch(farm, job, slurm_file);
 
+  // A worker started by hand in a Slurm job of its own joins, and its job is not this scheduler's to
+  // cancel: pd workers remove refuses it by id and by array, and it keeps running.
+  const int hand_worker = farm.add_worker({}, {{"SLURM_ARRAY_JOB_ID", "987654321"}, {"SLURM_ARRAY_TASK_ID", "7"}});
+  farm.wait_for_idle_workers(3, 30s);
+  for (const std::string& id : {std::string("987654321_7"), std::string("987654321")}) {
+    const test::RunResult refused = farm.pd({"workers", "remove", "--slurm", id});
+    EXPECT_EQ(refused.exit_code, 2) << refused.describe();
+    EXPECT_NE(refused.err.find("was not submitted by this scheduler"), std::string::npos) << refused.describe();
+  }
+  EXPECT_EQ(test::read_file_text(farm.scheduler_log()).find("987654321_7: "), std::string::npos) << "a slurm_remove event";
+  farm.kill_worker(hand_worker);
+
   // The same job on two hand-started workers.
   Farm& hand = start_farm(2, "slurm_two_hand");
   const int64_t hand_job = test::submit(hand, {scene, "--frames", std::to_string(kFrames), "--subsets", "2"});
@@ -323,7 +335,18 @@ TEST_F(SlurmTest, SlurmRequestsAreRefusedClearlyWithoutAScriptAndForBadValues) {
   EXPECT_NE(r.err.find("--slurm: expected a Slurm job id"), std::string::npos) << r.describe();
   r = farm.pd({"workers", "remove", "--slurm", "12"});
   EXPECT_EQ(r.exit_code, 2) << r.describe();
-  EXPECT_NE(r.err.find("no queued or running Slurm worker 12"), std::string::npos) << r.describe();
+  EXPECT_NE(r.err.find("started without --slurm-script"), std::string::npos) << r.describe();
+  // A worker claiming a Slurm job it was never given (any peer can say so in its hello): removing
+  // that job is refused and runs no scancel (this scheduler ran `scancel 987654321_7` before).
+  farm.add_worker({}, {{"SLURM_ARRAY_JOB_ID", "987654321"}, {"SLURM_ARRAY_TASK_ID", "7"}});
+  farm.wait_for_idle_workers(1, 30s);
+  r = farm.pd({"workers", "remove", "--slurm", "987654321_7"});
+  EXPECT_EQ(r.exit_code, 2) << r.describe();
+  EXPECT_NE(r.err.find("started without --slurm-script"), std::string::npos) << r.describe();
+  const std::string log = test::read_file_text(farm.scheduler_log());
+  EXPECT_NE(log.find("Slurm job 987654321_7"), std::string::npos) << "the worker's hello was not logged";
+  EXPECT_EQ(log.find("slurm_cancelled"), std::string::npos) << log;
+  EXPECT_EQ(log.find("slurm_error"), std::string::npos) << log;
   const test::RunResult bare = test::run({PD_SCHEDULER_BINARY, "--dir", farm.dir() + "/other", "--slurm-connect",
                                           "tcp://head:7400"},
                                          10s);

@@ -35,7 +35,7 @@ Farm::Farm(const std::string& dir, const FarmOptions& options) : dir_(dir), opti
   if (options.wait_for_workers) wait_for_idle_workers(options.workers, 20s);
 }
 
-int Farm::add_worker(const Args& args) {
+int Farm::add_worker(const Args& args, const EnvAdditions& env) {
   const int k = static_cast<int>(workers_.size()) + 1;
   const std::string name = "w" + std::to_string(k);
   worker_logs_.push_back(dir_ + "/worker-" + name + ".log");
@@ -45,7 +45,7 @@ int Farm::add_worker(const Args& args) {
   Args argv = {PD_WORKER_BINARY, "--connect", workers_endpoint_, "--name", name, "--scratch", dir_ + "/scratch-" + name,
                "--exit-with-parent", std::to_string(getpid())};
   argv.insert(argv.end(), args.begin(), args.end());
-  workers_.back().start(argv, {}, worker_logs_.back(), worker_logs_.back());
+  workers_.back().start(argv, env, worker_logs_.back(), worker_logs_.back());
   return k;
 }
 

@@ -64,8 +64,9 @@ class Farm {
   // returns once it prints its listening line.
   void start_scheduler();
 
-  // Starts one more worker w<k> (k = workers so far + 1) with `args` added; returns k.
-  int add_worker(const Args& args = {});
+  // Starts one more worker w<k> (k = workers so far + 1) with `args` added and `env` added to its
+  // environment (e.g. the SLURM_* variables of a worker started in a Slurm job by hand); returns k.
+  int add_worker(const Args& args = {}, const EnvAdditions& env = {});
 
   // Waits until `pd workers --json` lists n workers idle; runtime_error after `timeout`.
   void wait_for_idle_workers(int n, std::chrono::milliseconds timeout) const;
