@@ -13,7 +13,7 @@
 #
 #   bench/farm_shots.sh [--shots a,b] [--frames N] [--workers W] [--subsets "1 2"] [--stitch S]
 #                       [--work DIR] [--pd PATH]
-# --stitch S: frames each seam is stitched over (pd run --stitch; default pd's, 16; 0: none).
+# --stitch S: frames each seam is stitched over (pd run --stitch; default pd's, 10; 0: none).
 #
 # Shots (bench/scenes/): flag-large-10s (6 161 vertices, 1 000 frames), drape-25k (27 843 vertices,
 # 150 frames), cube-trampoline-large-3s (6 617 vertices, 300 frames). At full length they take hours
