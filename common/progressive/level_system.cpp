@@ -62,6 +62,10 @@ Eigen::VectorXd build_initial_positions(const Scene& scene) {
 
 }  // namespace
 
+Eigen::VectorXd level_initial_positions(const Scene& scene, const SceneHierarchy& hierarchy, int level) {
+  return build_initial_positions(scene_at_level(scene, hierarchy, level));
+}
+
 ProlongedHessian auto_prolonged_hessian(int level) {
   return level == 0 ? ProlongedHessian::CoarseFirst : ProlongedHessian::Lagged;
 }

@@ -36,6 +36,10 @@ namespace pd {
 // [0, L], or a pinned vertex missing from the level.
 Scene scene_at_level(const Scene& scene, const SceneHierarchy& hierarchy, int level);
 
+// Level `level`'s initial positions, stacked (m): the x0 of build_level_system, and every level's
+// frame 0. Throws as scene_at_level.
+Eigen::VectorXd level_initial_positions(const Scene& scene, const SceneHierarchy& hierarchy, int level);
+
 // The prolonged Hessian of level `level` when a run names none ("auto", the default): coarse-first
 // for the preview (level 0), lagged for the levels between it and the finest. Measured per level
 // (docs/performance.md, issue 16): coarse-first previews took 0.52-0.83x lagged's time on 7 of 8

@@ -39,8 +39,10 @@ Eigen::VectorXd initial_velocity(const Scene& scene, const SceneHierarchy& hiera
 // with smoothstep (3u^2 - 2u^3) an 8-frame stitch still popped 0.97 at the flag's seam at 100 (K = 1:
 // 0.43), with smootherstep 0.38; a weight ramped linearly put the first stitched frame 80 % of the way
 // at once (a pop of 1.5 there). docs/progressive.md, "Stitching a seam".
+double smootherstep(double u) { return u * u * u * (u * (6.0 * u - 15.0) + 10.0); }
+
 double stitch_weight(double u) {
-  const double s = u * u * u * (u * (6.0 * u - 15.0) + 10.0);
+  const double s = smootherstep(u);
   return s >= 1.0 ? kStitchWeight : std::min(kStitchWeight, s / (1.0 - s));
 }
 
@@ -131,6 +133,19 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
     sys.ip.add_term(std::move(term));
   }
 
+  // The start offset (kLevelStartFrames), from the levels' initial positions rather than the level
+  // below's stored frame 0 (a task resumed or continued within the first frames is not sent frame 0),
+  // kept per vertex in the frame of its coarse face (ShellProlongation::vertex_rotations at frame 0)
+  // so that it turns with the level below.
+  Positions start_offset;
+  if (refining && a < kLevelStartFrames) {
+    const Positions below0 = as_rows(level_initial_positions(scene, hierarchy, l - 1));
+    start_offset = as_rows(level_initial_positions(scene, hierarchy, l)) - below_level->to_next->apply(below0);
+    const std::vector<Mat3> q0 = below_level->to_next->vertex_rotations(below0);
+    for (Eigen::Index i = 0; i < start_offset.rows(); ++i)
+      start_offset.row(i) = (q0[static_cast<std::size_t>(i)].transpose() * start_offset.row(i).transpose()).transpose();
+  }
+
   Eigen::VectorXd x_hat;
   for (int t = a; t < b; ++t) {
     if (guide && t + 1 <= seam + inputs.stitch_frames)  // after the stitch the guide keeps its last target, at weight 0
@@ -142,6 +157,12 @@ LevelTaskReport solve_level_task(const Scene& scene, const SceneHierarchy& hiera
       // PD eq. 5: the momentum of level l-1, prolonged.
       const Eigen::VectorXd now = below(t), before = below(t - 1);
       x_hat = stacked(below_level->to_next->apply(as_rows(now))) + below_level->to_next->U_stacked() * (now - before);
+      if (t < kLevelStartFrames) {
+        const double keep = 1.0 - smootherstep(double(t + 1) / kLevelStartFrames);
+        const std::vector<Mat3> q = below_level->to_next->vertex_rotations(as_rows(now));
+        for (Eigen::Index i = 0; i < start_offset.rows(); ++i)
+          x_hat.segment<3>(3 * i) += keep * (q[static_cast<std::size_t>(i)] * start_offset.row(i).transpose());
+      }
       in.inertia_target = &x_hat;
     }
     FrameRecord r = stepper.step(t, x, v, in);

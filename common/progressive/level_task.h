@@ -80,6 +80,15 @@ struct LevelTaskInputs {
 // The stitch guide's weight at its last frame, in units of the inertia's stiffness M / h^2.
 constexpr double kStitchWeight = 100.0;
 
+// A refinement level's start (its frame 0, the scene's initial state on its mesh) is not the
+// prolongation of the level below's frame 0: PD eq. 5's inertia target P(x_{l-1}^t) + U(x_{l-1}^t -
+// x_{l-1}^{t-1}) would pull the level onto the prolonged trajectory in its first step. So the target
+// of its first kLevelStartFrames steps carries the start offset d0 = x_l^0 - P(x_{l-1}^0), decayed
+// by 1 - smootherstep((t + 1) / kLevelStartFrames) for the step to frame t + 1: the first step is
+// the level's own momentum, and the offset fades with no jump in velocity nor acceleration.
+// docs/progressive.md, "Where a refinement level starts".
+constexpr int kLevelStartFrames = 10;
+
 struct LevelTaskOptions {
   LevelSystemOptions system;
   UpsamplingSettings upsampling;  // for a vertical start
