@@ -2,7 +2,9 @@
 #include <algorithm>
 #include <ctime>
 #include <filesystem>
+#include <limits>
 
+#include "farm/job_limits.h"
 #include "farm/messaging.h"
 #include "farm/scene_source.h"
 #include "farm/task_graph.h"
@@ -73,11 +75,18 @@ protocol::Reply Scheduler::serve(protocol::SubmitJob& m) {
   // K >= 2: the refinement levels are added once the preview is stored, with seams placed from it
   // (seams.cpp); K = 1 pipelines them behind the preview from the start.
   const bool deferred = !job.preview_only && job.subsets >= 2 && job.levels >= 2;
-  g.preview_only = job.preview_only || deferred;
   std::vector<NewTask> tasks;
   try {
+    // The whole job's size (its deferred refinement and a later pd refine included), before any of it
+    // is made (farm/job_limits.h).
+    int64_t vertices = 0;
+    for (const SceneObject& o : scene.objects) vertices += o.rest.num_vertices();
+    farm::check_job_size("submit", g, false, vertices, scene.hierarchy.ratio, farm::free_bytes_at(options_.dir));
+    g.preview_only = job.preview_only || deferred;
     tasks = farm::job_tasks(g);
   } catch (const std::invalid_argument& e) {
+    return error(e.what());
+  } catch (const InputError& e) {
     return error(e.what());
   }
   const int64_t id = store_->add_job(job, tasks);
@@ -99,6 +108,17 @@ protocol::Reply Scheduler::serve(protocol::RefineJob& m) {
   if (m.stitch > farm::kMaxStitchFrames)
     return error("refine: stitch: must be <= " + std::to_string(farm::kMaxStitchFrames) + ", got " + std::to_string(m.stitch));
   if (job->spec.levels < 2) return error("job " + std::to_string(m.job) + " has one level: nothing to refine");
+  farm::GraphOptions g;
+  g.frames = job->spec.frames;
+  g.levels = job->spec.levels;
+  g.subsets = m.subsets;
+  g.preview_chunk = job->spec.preview_chunk;
+  g.stitch = m.stitch;
+  try {  // its frames' storage was checked at submit, for every level
+    farm::check_job_size("refine", g, true, 0, 2.0, std::numeric_limits<double>::infinity());
+  } catch (const InputError& e) {
+    return error(e.what());
+  }
   store_->set_subsets(m.job, m.subsets, m.stitch);
   store_->set_preview_only(m.job, false);
   if (m.subsets >= 2) {
@@ -111,12 +131,6 @@ protocol::Reply Scheduler::serve(protocol::RefineJob& m) {
     for (const TaskRow& t : store_->tasks(m.job)) added += t.level >= 1 ? 1 : 0;
     return protocol::Accepted{m.job, "added " + std::to_string(added) + " refinement tasks, seams placed from the preview"};
   }
-  farm::GraphOptions g;
-  g.frames = job->spec.frames;
-  g.levels = job->spec.levels;
-  g.subsets = m.subsets;
-  g.preview_chunk = job->spec.preview_chunk;
-  g.stitch = m.stitch;
   const std::vector<NewTask> tasks = farm::refinement_tasks(g);
   store_->add_tasks(m.job, tasks);
   event("job_refined", m.job, 0, 0, std::to_string(tasks.size()) + " refinement tasks, K = " + std::to_string(m.subsets));

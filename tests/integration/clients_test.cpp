@@ -525,5 +525,40 @@ TEST_F(FarmTest, TwoClientsSubmittingAndCancellingForAMinuteSeeNoBusyErrorAndEve
   RecordProperty("slowest_command_s", std::to_string(clients.slowest));
 }
 
+// Issue 47 item 2 (farm/job_limits.h): requests whose fields are each within pd's ranges but whose
+// task graph is absurd are refused before anything is made, naming the figures, and the scheduler
+// keeps answering; a job at the limit's size (19 001 tasks inserted in one transaction) is taken
+// without its one worker being dropped as silent.
+TEST_F(FarmTest, AbsurdJobSizesAreRefusedNamingTheFiguresAndTheSchedulerKeepsAnswering) {
+  Farm& farm = start_farm(1, "absurd_sizes");
+  const std::string scene = test::scene_path("cube-trampoline.json");
+  const struct {
+    Args args;
+    std::string expected;
+  } cases[] = {
+      {{"--frames", "10000000", "--subsets", "10000000", "--levels", "20"}, "would need 380199982 tasks; the limit is 20000"},
+      {{"--frames", "10000000", "--preview-chunk", "1", "--levels", "1"}, "would need 10000001 tasks; the limit is 20000"},
+  };
+  for (const auto& c : cases) {
+    Args args = {"submit", scene};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const test::RunResult r = farm.pd(args);
+    EXPECT_EQ(r.exit_code, 2) << r.describe();
+    EXPECT_NE(r.err.find(c.expected), std::string::npos) << r.describe();
+    std::printf("refused in %.2f s: %s", r.seconds, r.err.c_str());
+  }
+  EXPECT_EQ(test::parse_json(farm.pd({"status", "--json"})).at("jobs").size(), 0u);
+
+  const auto submitted = Clock::now();
+  const int64_t job = test::submit(farm, {scene, "--frames", "19000", "--preview-chunk", "1", "--levels", "1"});
+  const double seconds = std::chrono::duration<double>(Clock::now() - submitted).count();
+  std::printf("a 19 001-task job submitted in %.2f s (the reply, its transaction included)\n", seconds);
+  RecordProperty("submit_19001_tasks_seconds", std::to_string(seconds));
+  EXPECT_EQ(farm.pd({"cancel", std::to_string(job)}).exit_code, 0);
+  farm.wait_for_idle_workers(1, 30s);
+  EXPECT_EQ(test::read_file_text(farm.scheduler_log()).find("\"worker_lost\""), std::string::npos)
+      << "the worker was dropped while the job was inserted";
+}
+
 }  // namespace
 }  // namespace pd
