@@ -35,10 +35,12 @@ int simulate(const SimulateArgs& args);
 struct ExportArgs {
   std::string file;
   int level = -1;  // -1: not given (level 0)
-  std::string format = "obj";
+  std::string format = "obj";  // "obj": one OBJ per frame; "pc2": a PC2 point cache and its rest OBJ
   std::string out_dir;
   bool rest = false;     // write every level's rest mesh as level_<l>.obj (instead of frames)
   bool prolong = false;  // write the frames of `level` prolonged to the finest mesh (P^level)
+  std::string frames;    // "FIRST:LAST", inclusive frame numbers; empty: every stored frame
+  bool per_object = false;  // one file (PC2: one cache and rest OBJ) per scene object
 };
 int export_frames(const ExportArgs& args);
 

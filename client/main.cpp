@@ -233,7 +233,21 @@ int main(int argc, char** argv) {
   auto* export_cmd = app.add_subcommand("export", "Write the frames of a frame file for other tools");
   export_cmd->add_option("file", exp.file, "Frame file (HDF5)")->required();
   export_cmd->add_option("--level", exp.level, "Resolution level (0 = coarsest)")->transform(level_index());
-  export_cmd->add_option("--format", exp.format, "Output format")->transform(pd::cli::one_of({"obj"}));
+  export_cmd->add_option("--format", exp.format,
+                         "obj (default): one OBJ per frame, frame_<t>.obj (5 digits); pc2: one PC2 point cache "
+                         "level_<l>.pc2 (float32, start frame = the first frame, sample rate 1) with the rest mesh "
+                         "in the same vertex order as level_<l>.obj (with --prolong level_<l>_prolonged.pc2/.obj, on "
+                         "the finest mesh), for Blender's Mesh Cache modifier, Maya and 3ds Max")
+      ->transform(pd::cli::one_of({"obj", "pc2"}));
+  export_cmd->add_option("--frames", exp.frames,
+                         "FIRST:LAST: export these frames only (inclusive; every one must be stored); default: every "
+                         "stored frame (pc2: the contiguous stored run from the first stored frame, noted on stderr "
+                         "when frames are left out)")
+      ->check(pd::cli::non_empty("every stored frame"));
+  export_cmd->add_flag("--per-object", exp.per_object,
+                       "One file per scene object: <object>_frame_<t>.obj, or level_<l>_<object>.pc2/.obj (with "
+                       "--prolong level_<l>_prolonged_<object>.pc2/.obj); in <object>, characters other than "
+                       "letters, digits, '-', '_' and '.' become '_'");
   export_cmd->add_option("--out,-o", exp.out_dir,
                          "Output folder (created if missing, in an existing folder); the files are written to a "
                          "temporary folder and moved in at the end")
