@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <new>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -15,6 +16,7 @@
 #include "progressive/level_stepper.h"
 #include "progressive/level_system.h"
 #include "util/input_error.h"
+#include "util/memory_budget.h"
 #include "util/process_setup.h"
 
 namespace {
@@ -338,6 +340,14 @@ int main(int argc, char** argv) {
   } catch (const pd::StateDiverged& e) {
     // Not bad input (the scene was valid) nor a bug: the shot is beyond what the solver can do.
     std::fprintf(stderr, "pd: error: %s\n", pd::cli::one_line(e.what()).c_str());
+    exit_without_hdf5_cleanup(3);
+  } catch (const pd::OutOfMemory& e) {
+    // Not a bug and not bad input: this machine (or its limits: ulimit -v, a cgroup) cannot hold what
+    // was asked. pd simulate checks a scene's needs first (util/memory_budget.h); this is the rest.
+    std::fprintf(stderr, "pd: error: %s\n", pd::cli::one_line(e.what()).c_str());
+    exit_without_hdf5_cleanup(3);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "pd: error: out of memory (an allocation failed)\n");
     exit_without_hdf5_cleanup(3);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "pd: internal error: %s\n", pd::cli::one_line(e.what()).c_str());

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <new>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "store/frame_store.h"
 #include "scene/scene_file.h"
 #include "util/input_error.h"
+#include "util/memory_budget.h"
 #include "util/parallel.h"
 
 namespace pd::cli {
@@ -181,6 +183,19 @@ std::string keep_stored(PartialOutput& out, int stored) {
 
 }  // namespace
 
+// Refuses a scene this process cannot hold before any of it is built (util/memory_budget.h): a
+// 2 M-vertex sheet under a 2 GiB limit used to end in "internal error: std::bad_alloc".
+void check_memory(const std::string& scene_path, const Scene& scene) {
+  long long vertices = 0;
+  for (const SceneObject& o : scene.objects) vertices += o.rest.num_vertices();
+  const double needed = simulation_bytes(vertices);
+  const MemoryBudget budget = memory_budget();
+  if (needed > budget.bytes)
+    throw InputError(shown_path(scene_path) + ": " + std::to_string(vertices) + " vertices would need about " +
+                     gib_text(needed) + " to simulate (about " + std::to_string(int(kSimulationBytesPerVertex / 1024)) +
+                     " KiB a vertex); " + gib_text(budget.bytes) + " is left to this process by " + budget.limited_by);
+}
+
 int simulate(const SimulateArgs& given) {
   check_scene_files(given.scene);
   const Scene scene = load_scene(given.scene);
@@ -188,6 +203,7 @@ int simulate(const SimulateArgs& given) {
   const bool mode_given = !args.mode.empty();
   if (!mode_given) args.mode = scene.progressive ? "progressive" : "direct";
   check_mode_options(args, mode_given);
+  check_memory(args.scene, scene);
   set_element_threads(args.threads);
   std::vector<std::string> inputs = scene_obj_paths(args.scene, scene.json_text);
   inputs.push_back(args.scene);
@@ -205,6 +221,8 @@ int simulate(const SimulateArgs& given) {
     throw InputError(e.what() + keep_stored(out, stored));
   } catch (const StateDiverged& e) {
     throw StateDiverged(shown_path(args.scene) + ": " + e.what() + keep_stored(out, stored));
+  } catch (const std::bad_alloc&) {
+    throw OutOfMemory(shown_path(args.scene) + ": out of memory (an allocation failed)" + keep_stored(out, stored));
   } catch (const std::exception& e) {
     throw std::runtime_error(e.what() + keep_stored(out, stored));
   }

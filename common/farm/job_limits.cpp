@@ -4,22 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 
 #include "util/input_error.h"
+#include "util/memory_budget.h"
 
 namespace pd::farm {
-
-namespace {
-
-std::string gib(double bytes) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.1f GiB", bytes / (1024.0 * 1024.0 * 1024.0));
-  return text;
-}
-
-}  // namespace
 
 int64_t job_task_bound(const GraphOptions& o, bool refinement_only) {
   const int64_t N = std::max(o.frames, 1), levels = std::max(o.levels, 1);
@@ -55,8 +45,8 @@ void check_job_size(const std::string& request, const GraphOptions& o, bool refi
   const double bytes = job_frame_bytes(o.frames, o.levels, finest_vertices, ratio);
   if (bytes > free_bytes)
     throw InputError(r + std::to_string(o.frames) + " frames of " + std::to_string(o.levels) + " levels (" +
-                     std::to_string(finest_vertices) + " vertices on the finest) would need " + gib(bytes) +
-                     " of frame storage; the farm folder has " + gib(free_bytes) +
+                     std::to_string(finest_vertices) + " vertices on the finest) would need " + gib_text(bytes) +
+                     " of frame storage; the farm folder has " + gib_text(free_bytes) +
                      " free (fewer --frames or --levels, or free space)");
 }
 
