@@ -52,6 +52,13 @@ Scheduler::Scheduler(const SchedulerOptions& options)
     // A reply to a peer that is gone fails loudly (EHOSTUNREACH) instead of vanishing.
     s->set(zmq::sockopt::router_mandatory, 1);
   }
+  // Replies waiting for a client to read them: a pd client sends one request and reads its reply
+  // before the next, so 16 leave room for a script pipelining a few (libzmq sees the client's reads
+  // only every 8 messages: more than 8 unread replies may already be refused); the rest are dropped
+  // (reply_failed). With libzmq's default of 1 000 a client pipelining 849 fetches without reading
+  // held 378 MB of replies here. In bytes this bounds fetches only by the job file's size (a fetch
+  // reply is the whole file).
+  clients_.set(zmq::sockopt::sndhwm, kClientReplyQueue);
   // CURVE and the ZAP handler before binding, or refusal of a non-loopback endpoint without keys.
   zap_ = secure_sockets(ctx_, options_, {&workers_, &clients_});
   workers_.bind(options.workers_endpoint);
@@ -436,6 +443,16 @@ void Scheduler::preempt_starved() {
 }
 
 void Scheduler::heartbeats_and_liveness() {
+  for (const RefusalRows::Counted& c : refusal_rows_.closed(unix_now())) {
+    const auto it = sessions_.find(c.identity);
+    event("report_refused_counted", 0, 0, it == sessions_.end() ? 0 : it->second.worker,
+          std::to_string(c.refusals) + " more refused reports " +
+              (c.identity == RefusalRows::kOtherPeers ? std::string("of peers beyond the ") +
+                                                            std::to_string(RefusalRows::kMaxPeers) + " tracked"
+                                                      : std::string("of one peer")) +
+              " within " + std::to_string(int(RefusalRows::kWindowSeconds)) +
+              " s were logged but not stored (the first " + std::to_string(RefusalRows::kRowsPerPeer) + " were)");
+  }
   const auto now = Clock::now();
   std::vector<std::string> lost;
   for (auto& [identity, s] : sessions_) {

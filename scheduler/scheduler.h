@@ -21,6 +21,7 @@
 #include "farm/curve.h"
 #include "protocol/protocol.h"
 #include "scheduler/job_files.h"
+#include "scheduler/refusal_rows.h"
 #include "scheduler/slurm_pool.h"
 #include "store/task_store.h"
 
@@ -75,6 +76,9 @@ struct Session {
   std::string slurm_job;  // Hello.slurm_job: the Slurm job it runs as ("" when not a Slurm worker)
   std::string blas_kernel;  // Hello.blas_kernel
 };
+
+// Replies queued to one client at most (its socket's send high-water mark; scheduler.cpp).
+constexpr int kClientReplyQueue = 16;
 
 class Scheduler {
  public:
@@ -171,6 +175,7 @@ class Scheduler {
   std::unique_ptr<SlurmPool> slurm_;  // after store_: its tables live in the same file
   JobFiles files_;
   std::map<std::string, Session> sessions_;  // by identity
+  RefusalRows refusal_rows_;  // which refused reports get an events row (refusal_rows.h)
   std::chrono::milliseconds heartbeat_;
   // Per job and level: summed solve time and count of frames reported (for ETAs; approximate).
   std::map<std::pair<int64_t, int>, std::pair<double, int>> step_seconds_;

@@ -26,8 +26,9 @@ std::optional<double> kappa_of(const std::vector<protocol::Stat>& stats) {
 
 void Scheduler::refuse(const std::string& identity, const std::string& reason) {
   auto it = sessions_.find(identity);
+  // Always a log line; a row in farm.sqlite only within the peer's budget (refusal_rows.h).
   event("report_refused", it == sessions_.end() ? 0 : it->second.job, it == sessions_.end() ? 0 : it->second.task,
-        it == sessions_.end() ? 0 : it->second.worker, reason);
+        it == sessions_.end() ? 0 : it->second.worker, reason, refusal_rows_.admit(identity, unix_now()));
   protocol::Refused r;
   r.reason = reason;
   send_worker(identity, protocol::encode(r));
