@@ -18,6 +18,7 @@
 
 #include "cli_text.h"
 #include "commands.h"
+#include "frame_file_guard.h"
 #include "output_files.h"
 #include "progressive/consistency.h"
 #include "progressive/error_measures.h"
@@ -515,6 +516,8 @@ void print_text(const nlohmann::json& j) {
 int compare(const CompareArgs& args) {
   check_input_file(args.file, "frame file");
   if (!args.other.empty()) check_input_file(args.other, "frame file");
+  check_frame_file_in_child(args.file);
+  if (!args.other.empty()) check_frame_file_in_child(args.other);
   const std::string csv_path = args.csv.empty() ? args.file + ".compare.csv" : args.csv;
   check_output_file(csv_path, "--csv", {args.file, args.other});
   check_replaceable(csv_path, "--csv", args.force, file_starts_with(csv_path, kCsvHeadStart), "a pd compare CSV");

@@ -18,6 +18,7 @@
 #include "cli_text.h"
 #include "commands.h"
 #include "geometry/obj_io.h"
+#include "frame_file_guard.h"
 #include "output_files.h"
 #include "pc2_writer.h"
 #include "store/frame_store.h"
@@ -377,6 +378,7 @@ int export_frames(const ExportArgs& args) {
   check_option_combinations(args);
   const FrameRange range = parse_frames(args.frames);
   check_input_file(args.file, "frame file");
+  check_frame_file_in_child(args.file);
   check_output_folder(args.out_dir, "--out", {args.file});
   const FrameReader reader(args.file);
   const int level = args.level < 0 ? 0 : args.level;

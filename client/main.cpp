@@ -12,6 +12,7 @@
 
 #include "cli_text.h"
 #include "commands.h"
+#include "frame_file_guard.h"
 #include "plan_command.h"
 #include "progressive/level_stepper.h"
 #include "progressive/level_system.h"
@@ -232,6 +233,10 @@ int main(int argc, char** argv) {
       ->transform(count_at_least_one());
 
   pd::cli::ExportArgs exp;
+  // Hidden: the child process in which pd first opens a frame file it was handed (frame_file_guard.h).
+  std::string check_file;
+  auto* check_cmd = app.add_subcommand("check-frame-file", "")->group("");
+  check_cmd->add_option("file", check_file)->required();
   auto* export_cmd = app.add_subcommand("export", "Write the frames of a frame file for other tools");
   export_cmd->add_option("file", exp.file, "Frame file (HDF5)")->required();
   export_cmd->add_option("--level", exp.level, "Resolution level (0 = coarsest)")->transform(level_index());
@@ -327,6 +332,8 @@ int main(int argc, char** argv) {
 
   try {
     check_option_pairs();
+    if (*check_cmd) return pd::cli::check_frame_file_here(check_file);
+    pd::cli::set_frame_file_checker("/proc/self/exe");
     if (*simulate) return pd::cli::simulate(sim);
     if (*export_cmd) return pd::cli::export_frames(exp);
     if (*hierarchy) return pd::cli::hierarchy(hier);

@@ -19,6 +19,7 @@
 #include "cli_text.h"
 #include "farm/makespan.h"
 #include "farm/seam_placement.h"
+#include "frame_file_guard.h"
 #include "output_files.h"
 #include "farm/task_graph.h"
 #include "store/frame_store.h"
@@ -248,6 +249,7 @@ CLI::App* add_plan_subcommand(CLI::App& app, PlanArgs& args) {
 int plan(const PlanArgs& args) {
   validate(args);
   check_input_file(args.file, "frame file");
+  check_frame_file_in_child(args.file);
   const std::vector<int> workers = parse_workers(args.workers);
   Measured m = measure(args.file, args.subsets);
   if (args.frames > 0 && args.frames != m.frames) m.seams.clear();  // the file's preview is another length

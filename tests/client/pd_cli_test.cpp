@@ -574,6 +574,29 @@ std::set<std::string> listing(const std::string& dir) {
   return names;
 }
 
+// fuzz/known_hdf5_bugs/frame_file: files on which HDF5 1.10 itself crashes, loops or overflows. pd
+// opens a frame file it is handed in a child first (client/frame_file_guard.h): export, compare and
+// plan give a one-line error naming the file and exit 2, never a signal (two of them killed pd export
+// with SIGSEGV before).
+TEST(PdCliHostile, TheKnownHdf5CrashFilesGiveAClearErrorAndNoCrash) {
+  const std::string dir = test::scratch_dir("cli_known_hdf5");
+  int checked = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(test::source_dir() + "/fuzz/known_hdf5_bugs/frame_file")) {
+    const std::string file = entry.path().string();
+    for (const std::string& command : {"export " + file + " --out " + dir + "/out", "compare " + file + " --csv " + dir + "/c.csv",
+                                       "plan " + file + " --workers 2"}) {
+      const CliResult r = run_pd(command);
+      EXPECT_EQ(r.exit_code, 2) << command << "\n" << r.output;
+      EXPECT_EQ(r.output.rfind("pd: error: " + file + ": ", 0), 0u) << command << "\n" << r.output;
+      EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << command << "\n" << r.output;
+      ++checked;
+    }
+    std::printf("%s: %s", entry.path().filename().c_str(), run_pd("export " + file + " --out " + dir + "/out").output.c_str());
+  }
+  EXPECT_EQ(checked, 8 * 3);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+}
+
 TEST(PdCliHostile, CommandLineErrorsAreOneLineStatingWhatIsAllowed) {
   const std::string dir = test::scratch_dir("cli_one_line");
   const std::string scene = write_file(dir, "s.json", small_scene()), o = dir + "/o.h5";
