@@ -14,6 +14,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <limits>
@@ -179,6 +180,11 @@ std::string splice(std::string text, const std::string& replacement, bool keep_q
 }
 
 }  // namespace
+
+uint64_t fuzz_seed() {
+  const char* s = std::getenv("PD_FUZZ_SEED");
+  return s && *s ? std::strtoull(s, nullptr, 0) : 20240611;
+}
 
 const char* family_name(Family f) {
   switch (f) {

@@ -1,5 +1,5 @@
 #pragma once
-// Hostile input for the farm's sockets (tests/integration/fuzz_test.cpp): a seeded, reproducible
+// Hostile input for the farm's sockets (tests/integration/fuzz_test.cpp, hostile_peers_test.cpp): a seeded, reproducible
 // generator of malformed multipart messages for one message family (protocol/protocol.h), and a raw
 // ZMTP 3.0 peer that can say what a ZeroMQ socket never would (a frame header declaring more bytes
 // than ZMQ_MAXMSGSIZE, a multipart message that never ends).
@@ -28,6 +28,8 @@ namespace pd::test {
 enum class Family { command, report, request, reply };
 
 const char* family_name(Family f);  // "command", "report", ...
+// The base seed of the farm's fuzz tests: PD_FUZZ_SEED (any base strtoull reads), default 20240611.
+uint64_t fuzz_seed();
 
 // One valid message of every type of the family, encoded. Ids are 424242 and up (no test farm
 // gives those), scene texts are "{}" (no scheduler accepts that scene): a mutation that still
