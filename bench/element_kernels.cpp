@@ -74,9 +74,9 @@ int main(int argc, char** argv) {
     CLI::App app{"Wall time of the shell energies' value and gradient loops"};
     int threads = 0, calls = 200;
     std::vector<int> cells{100, 60};
-    app.add_option("--threads", threads, "element threads (0: every core)")->check(CLI::NonNegativeNumber);
-    app.add_option("--calls", calls, "calls per loop")->check(CLI::PositiveNumber);
-    app.add_option("--cells", cells, "cells along x and y")->expected(2)->check(CLI::PositiveNumber);
+    app.add_option("--threads", threads, "element threads (0: every core)")->check(CLI::Range(0, 4096));
+    app.add_option("--calls", calls, "calls per loop")->check(CLI::Range(1, 1'000'000'000));
+    app.add_option("--cells", cells, "cells along x and y")->expected(2)->check(CLI::Range(1, 100'000));
     try {
       app.parse(ac, av);
     } catch (const CLI::ParseError& e) {

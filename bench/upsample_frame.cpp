@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
   std::string frames;
   app.add_option("scene", scene_path, "The scene file the frame file was made from")->required()->check(CLI::ExistingFile);
   app.add_option("file", file, "Frame file with the hierarchy and level L's frames")->required()->check(CLI::ExistingFile);
-  app.add_option("--level", level, "The coarse level L (0 = coarsest)")->required()->check(CLI::NonNegativeNumber);
+  app.add_option("--level", level, "The coarse level L (0 = coarsest)")->required()->check(CLI::Range(0, 18));
   app.add_option("--frames", frames, "Comma-separated frames T of level L")->required();
   CLI11_PARSE(app, argc, argv);
   try {

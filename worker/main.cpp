@@ -47,12 +47,13 @@ int main(int argc, char** argv) {
   app.add_option("--scratch", options.scratch_dir, "Folder for received scene files (default /tmp/pd-worker-<pid>)");
   app.add_option("--fail-level", options.fail_level,
                  "Fault injection for tests: every task of this level fails with an 'injected failure' message")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, 19));  // levels 0..19 (a job has at most 20); not NonNegativeNumber, whose
+                                   // message prints DBL_MAX's 309 digits
   app.add_flag("--refuse-vertical-starts", options.refuse_vertical_starts,
                "Fault injection for tests: every vertical start fails as a refused safe upsampling");
   app.add_option("--refuse-vertical-starts-before", options.refuse_vertical_starts_before,
                  "Fault injection for tests: vertical starts at frames before F fail as refused safe upsamplings")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, 10'000'000));  // a job's frames
   app.add_option("--server-key", options.server_key_file,
                  "The scheduler's public key file (its PREFIX.pub); with --key, for a scheduler beyond loopback");
   app.add_option("--key", options.key_file, "This worker's key pair (PREFIX.key from pd keys); with --server-key");

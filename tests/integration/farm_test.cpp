@@ -536,5 +536,25 @@ TEST(TestFarm, AKilledTestProcessTakesItsFarmWithIt) {
   if (!HasFailure()) std::filesystem::remove_all(dir);
 }
 
+// pd-worker's numeric options are refused in one short line naming the range (CLI11's
+// NonNegativeNumber printed DBL_MAX's 309 digits as the upper bound of --fail-level).
+TEST(WorkerCli, BadNumericOptionsAreOneShortLineNamingTheRange) {
+  const struct {
+    std::vector<std::string> args;
+    std::string expected;
+  } cases[] = {{{"--fail-level", "-3"}, "--fail-level: Value -3 not in range 0 to 19"},
+               {{"--fail-level", "x"}, "--fail-level: Value x not in range 0 to 19"},
+               {{"--refuse-vertical-starts-before", "0"}, "--refuse-vertical-starts-before: Value 0 not in range 1 to 10000000"},
+               {{"--threads", "1,2"}, "--threads: Value 1,2 not in range 0 to 4096"}};
+  for (const auto& c : cases) {
+    std::vector<std::string> argv = {PD_WORKER_BINARY, "--connect", "tcp://127.0.0.1:1"};
+    argv.insert(argv.end(), c.args.begin(), c.args.end());
+    const test::RunResult r = test::run(argv, kCommand);
+    EXPECT_EQ(r.exit_code, 2) << r.describe();
+    EXPECT_EQ(r.err.rfind("pd-worker: error: " + c.expected + "\n", 0), 0u) << r.describe();
+    EXPECT_LT(r.err.size(), 200u) << r.describe();
+  }
+}
+
 }  // namespace
 }  // namespace pd
