@@ -1,6 +1,7 @@
 #pragma once
 // Inside the task store (store/task_store.h), shared by its source files: task_store.cpp (jobs,
-// tasks, attempts, workers, events) and task_store_frames.cpp (frames and guide frames). Not for
+// tasks, attempts, workers, events), task_store_failures.cpp (failed, refused and released attempts,
+// moved seams, requeue, recovery, cancel) and task_store_frames.cpp (frames and guide frames). Not for
 // other code: it names the store's SQL tables and its transaction helper.
 #include <chrono>
 #include <cstdint>
@@ -106,6 +107,57 @@ inline std::vector<int> frames_between(Db& db, const char* what, const char* tab
   while (st.step()) frames.push_back(st.column_int(0));
   return frames;
 }
+
+// ---- Tasks and attempts (task_store.cpp and task_store_failures.cpp) ----
+
+inline bool job_ended(JobState s) { return s == JobState::done || s == JobState::failed || s == JobState::cancelled; }
+
+// Failed attempts count against tasks and workers until the job is requeued (their outcome then
+// becomes kRequeuedFailure).
+inline constexpr char kFailure[] = "failed";
+inline constexpr char kRequeuedFailure[] = "failed, requeued";
+// An attempt whose vertical start was refused (continue_horizontally): not a failure of the worker.
+inline constexpr char kVerticalRefused[] = "vertical start refused";
+
+inline TaskRow read_task(Db& db, int64_t task) {
+  Statement st(db, std::string("SELECT ") + kTaskColumns + " FROM tasks t WHERE t.id = ?1");
+  if (!st.bind_all(task).step()) db.fail_with("no task " + str(task));
+  return task_from(db, st);
+}
+
+// Closes the task's open attempt, if any.
+inline void close_attempts(Db& db, int64_t task, const std::string& outcome, const std::string& message) {
+  run_sql(db, "UPDATE attempts SET ended = ?2, outcome = ?3, message = ?4 WHERE task_id = ?1 AND ended IS NULL", task,
+          now(), outcome, message);
+}
+
+// The worker that held a task is free again, unless the scheduler has meanwhile marked it lost.
+inline void free_worker(Db& db, int64_t worker, bool credit) {
+  if (worker == 0) return;
+  run_sql(db, "UPDATE workers SET state = CASE WHEN state = 'busy' THEN 'idle' ELSE state END, "
+          "tasks_done = tasks_done + ?2 WHERE id = ?1", worker, credit ? 1 : 0);
+}
+
+inline void set_task_state(Db& db, int64_t task, TaskState state, const std::string& reason, bool keep_worker) {
+  run_sql(db, keep_worker ? "UPDATE tasks SET state = ?2, reason = ?3 WHERE id = ?1"
+                          : "UPDATE tasks SET state = ?2, reason = ?3, worker_id = NULL WHERE id = ?1",
+          task, to_string(state), reason);
+}
+
+// The tasks of a job in the given order (an ORDER BY list of this file, never a value).
+inline std::vector<TaskRow> job_tasks(Db& db, int64_t job, const char* order) {
+  Statement st(db, std::string("SELECT ") + kTaskColumns + " FROM tasks t WHERE t.job_id = ?1 ORDER BY " + order);
+  st.bind_all(job);
+  std::vector<TaskRow> rows;
+  while (st.step()) rows.push_back(task_from(db, st));
+  return rows;
+}
+
+// Inserts `tasks` (in their order, so ids follow it) with their dependencies, as waiting; the caller
+// promotes them. Returns the new tasks' ids, in the order given. what: the method, for messages.
+// (task_store.cpp)
+std::vector<int64_t> insert_tasks(Db& db, const char* what, int64_t job, const JobInfo& info,
+                                  const std::vector<NewTask>& tasks);
 
 }  // namespace task_store_internal
 
