@@ -19,6 +19,7 @@
 #include "scene/scene_contact.h"
 #include "scene/scene_hierarchy_config.h"
 #include "scene/scene_json.h"
+#include "scene/scene_mesh.h"
 #include "util/input_error.h"
 #include "util/message_text.h"
 
@@ -48,179 +49,11 @@ constexpr MaterialPreset kPresets[] = {
     {"aluminum", 2710.0, 7.0e10, 0.33, 1.0e-5},  // "Soda can"
 };
 
-std::string format_number(double x) {
-  std::ostringstream out;
-  out.precision(10);
-  out << x;
-  return out.str();
-}
-
 std::string format_vec(const Vec3& v) {
-  return "[" + format_number(v.x()) + ", " + format_number(v.y()) + ", " + format_number(v.z()) + "]";
-}
-
-// The vertices of the objects read before the current one (for the scene-wide limit).
-struct MeshBudget {
-  long long vertices_before = 0;
-};
-
-// Checked with the counts each generator documents, before it allocates anything.
-void check_vertex_budget(const JsonNode& node, long long vertices, long long faces, const MeshBudget& budget) {
-  if (vertices > kMaxSceneMeshVertices) {
-    node.fail_got("gives " + std::to_string(vertices) + " vertices, more than the limit of " +
-                  std::to_string(kMaxSceneMeshVertices) + " per object");
-  }
-  if (budget.vertices_before + vertices > kMaxSceneVertices) {
-    node.fail_got("gives " + std::to_string(vertices) + " vertices, which brings the scene to " +
-                  std::to_string(budget.vertices_before + vertices) + ", more than the limit of " +
-                  std::to_string(kMaxSceneVertices) + " for all objects together");
-  }
-  if (faces > kMaxSceneMeshFaces) {
-    node.fail_got("gives " + std::to_string(faces) + " faces, more than the limit of " +
-                  std::to_string(kMaxSceneMeshFaces) + " per object");
-  }
-}
-
-std::string resolve(const std::string& base_dir, const std::string& file) {
-  fs::path p(file);
-  if (p.is_relative() && !base_dir.empty()) p = fs::path(base_dir) / p;
-  return p.lexically_normal().string();
-}
-
-TriMesh read_obj_at(const JsonNode& path_node, const std::string& base_dir) {
-  std::string file = path_node.string(scene_json::kMaxPathBytes);
-  if (file.empty()) path_node.fail_got("must be a path to an OBJ file");
-  ObjLimits obj_limits;
-  obj_limits.max_vertices = kMaxSceneMeshVertices;
-  obj_limits.max_faces = kMaxSceneMeshFaces;
-  try {
-    return read_obj(resolve(base_dir, file), obj_limits);
-  } catch (const InputError& e) {
-    path_node.fail(e.what());
-  }
-}
-
-// Runs a mesh generator; anything it throws becomes an InputError at the mesh's key path.
-template <class Make>
-auto generate(const JsonNode& mesh, Make make) -> decltype(make()) {
-  try {
-    return make();
-  } catch (const InputError&) {
-    throw;
-  } catch (const std::exception& e) {
-    mesh.fail(std::string("could not build the mesh: ") + e.what());
-  }
+  return "[" + number_for_message(v.x()) + ", " + number_for_message(v.y()) + ", " + number_for_message(v.z()) + "]";
 }
 
 int as_int(long long v) { return static_cast<int>(v); }
-
-// The lattice of a generated rectangle or box (read_mesh has checked its keys), from its vertices
-// before the object's transform; nothing for other mesh types.
-std::optional<GridLattice> generated_lattice(const JsonNode& mesh_node, const TriMesh& mesh) {
-  const std::string type = mesh_node.required("type").string(64);
-  std::array<int, 3> cells{0, 0, 0};
-  if (type == "rectangle") {
-    const std::vector<JsonNode> c = mesh_node.required("cells").elements(2);
-    cells = {as_int(c[0].integer(1, 100000)), as_int(c[1].integer(1, 100000)), 0};
-  } else if (type == "box") {
-    const int c = as_int(mesh_node.required("cells").integer(1, 10000));
-    cells = {c, c, c};
-  } else {
-    return std::nullopt;
-  }
-  return generate(mesh_node, [&] { return lattice_of(mesh.V, cells); });
-}
-
-TriMesh read_mesh(const JsonNode& mesh, const std::string& base_dir, const MeshBudget& budget) {
-  const std::string type = mesh.required("type").choice(
-      {"rectangle", "rectangle_equilateral", "icosphere", "box", "cylinder", "cup", "gear", "obj"}, "mesh type");
-  if (type == "rectangle") {
-    mesh.expect_keys({"type", "size", "cells", "diagonals"});
-    auto size = mesh.required("size").elements(2);
-    JsonNode cells_node = mesh.required("cells");
-    auto cells = cells_node.elements(2);
-    double w = size[0].in_range(limits::kLength), h = size[1].in_range(limits::kLength);
-    long long nx = cells[0].integer(1, 100000), ny = cells[1].integer(1, 100000);
-    GridDiagonals diagonals = GridDiagonals::Checkerboard;
-    if (auto d = mesh.optional("diagonals")) {
-      const std::string name = d->choice({"checkerboard", "rows", "uniform"}, "diagonal pattern");
-      diagonals = name == "rows" ? GridDiagonals::Rows
-                  : name == "uniform" ? GridDiagonals::Uniform : GridDiagonals::Checkerboard;
-    }
-    check_vertex_budget(cells_node, (nx + 1) * (ny + 1), 2 * nx * ny, budget);
-    return generate(mesh, [&] { return make_rectangle(w, h, as_int(nx), as_int(ny), diagonals); });
-  }
-  if (type == "rectangle_equilateral") {
-    mesh.expect_keys({"type", "size", "cells_x"});
-    auto size = mesh.required("size").elements(2);
-    JsonNode cells_node = mesh.required("cells_x");
-    double w = size[0].in_range(limits::kLength), h = size[1].in_range(limits::kLength);
-    long long n = cells_node.integer(1, 100000);
-    // Row count as make_rectangle_equilateral computes it, to bound the vertex count before building.
-    double rows = std::max(1.0, std::round(h / (w / n * std::sqrt(3.0) / 2.0)));
-    if (!(rows <= 1e7)) cells_node.fail_got("gives more than 10^7 rows of vertices for this size");
-    const auto r = static_cast<long long>(rows);
-    check_vertex_budget(cells_node, (r + 1) * (n + 2), r * (2 * n + 1), budget);
-    return generate(mesh, [&] { return make_rectangle_equilateral(w, h, as_int(n)); });
-  }
-  if (type == "icosphere") {
-    mesh.expect_keys({"type", "radius", "subdivisions"});
-    double r = mesh.required("radius").in_range(limits::kLength);
-    JsonNode s_node = mesh.required("subdivisions");
-    long long s = s_node.integer(0, 8);
-    check_vertex_budget(s_node, 10 * (1LL << (2 * s)) + 2, 20 * (1LL << (2 * s)), budget);
-    return generate(mesh, [&] { return make_icosphere(r, as_int(s)); });
-  }
-  if (type == "box") {
-    mesh.expect_keys({"type", "size", "cells"});
-    Vec3 size = mesh.required("size").vec3_in(limits::kLength);
-    JsonNode cells_node = mesh.required("cells");
-    long long c = cells_node.integer(1, 10000);
-    check_vertex_budget(cells_node, 6 * c * c + 2, 12 * c * c, budget);
-    return generate(mesh, [&] { return make_box(size, as_int(c)); });
-  }
-  if (type == "cylinder") {
-    mesh.expect_keys({"type", "radius", "height", "segments", "rings", "capped"});
-    double r = mesh.required("radius").in_range(limits::kLength);
-    double h = mesh.required("height").in_range(limits::kLength);
-    long long segments = mesh.required("segments").integer(3, 100000);
-    JsonNode rings_node = mesh.required("rings");
-    long long rings = rings_node.integer(1, 100000);
-    auto capped_node = mesh.optional("capped");
-    bool capped = capped_node ? capped_node->boolean() : false;
-    check_vertex_budget(rings_node, segments * (rings + 1) + (capped ? 2 : 0),
-                        2 * segments * rings + (capped ? 2 * segments : 0), budget);
-    return generate(mesh, [&] { return make_cylinder(r, h, as_int(segments), as_int(rings), capped); });
-  }
-  if (type == "cup") {
-    mesh.expect_keys({"type", "radius", "height", "segments", "rings"});
-    double r = mesh.required("radius").in_range(limits::kLength);
-    double h = mesh.required("height").in_range(limits::kLength);
-    long long segments = mesh.required("segments").integer(3, 100000);
-    JsonNode rings_node = mesh.required("rings");
-    long long rings = rings_node.integer(1, 100000);
-    check_vertex_budget(rings_node, segments * (rings + 1) + 1, 2 * segments * rings + segments, budget);
-    return generate(mesh, [&] { return make_cup(r, h, as_int(segments), as_int(rings)); });
-  }
-  if (type == "gear") {
-    mesh.expect_keys({"type", "radius", "root_radius", "teeth", "thickness"});
-    double r = mesh.required("radius").in_range(limits::kLength);
-    JsonNode root_node = mesh.required("root_radius");
-    double root = root_node.in_range(limits::kLength);
-    // Checked here rather than left to make_gear so the message names the key.
-    if (!(root < r)) root_node.fail_got("must be < radius (" + format_number(r) + ")");
-    JsonNode teeth_node = mesh.required("teeth");
-    long long teeth = teeth_node.integer(3, 100000);
-    double thickness = mesh.required("thickness").in_range(limits::kLength);
-    check_vertex_budget(teeth_node, 8 * teeth + 2, 16 * teeth, budget);
-    return generate(mesh, [&] { return make_gear(r, root, as_int(teeth), thickness); });
-  }
-  mesh.expect_keys({"type", "path"});
-  JsonNode path = mesh.required("path");
-  TriMesh m = read_obj_at(path, base_dir);  // read_obj stops at the per-object vertex and face limits
-  check_vertex_budget(path, m.num_vertices(), m.num_faces(), budget);
-  return m;
-}
 
 // x -> R (scale x) + translation
 struct Transform {
@@ -313,7 +146,7 @@ std::vector<Keyframe> read_keyframes(const JsonNode& node) {
     JsonNode time = k.required("time");
     key.time = time.in_range(limits::kTime);
     if (!keys.empty() && !(key.time > keys.back().time))
-      time.fail_got("must be later than the previous keyframe's time (" + format_number(keys.back().time) + ")");
+      time.fail_got("must be later than the previous keyframe's time (" + number_for_message(keys.back().time) + ")");
     if (auto tr = k.optional("translation")) key.translation = tr->vec3_in(limits::kPosition);
     if (auto r = k.optional("rotation")) {
       r->expect_keys({"axis", "angle_deg"});
@@ -351,7 +184,7 @@ PinScript read_script(const JsonNode& node) {
   if (auto a = node.optional("start")) s.start = a->in_range(limits::kTime);
   if (auto b = node.optional("end")) {
     s.end = b->in_range(limits::kTime);
-    if (!(s.end > s.start)) b->fail_got("must be > start (" + format_number(s.start) + ")");
+    if (!(s.end > s.start)) b->fail_got("must be > start (" + number_for_message(s.start) + ")");
   }
   return s;
 }
@@ -444,7 +277,7 @@ Pressure read_pressure(const JsonNode& node, const TriMesh& rest, const Position
     const double volume = enclosed_volume(rest.F, stacked(*shape));
     if (!(volume > 0.0))
       node.fail(std::string("needs outward-oriented faces, but the ") + (shape == &rest.V ? "rest" : "initial") +
-                " shape encloses a volume of " + format_number(volume) +
+                " shape encloses a volume of " + number_for_message(volume) +
                 " m^3 (faces wound inward: reverse their vertex order)");
   }
   return p;
@@ -532,8 +365,8 @@ Wind read_wind(const JsonNode& node) {
   // Gusts swing the speed up to (1 + amplitude) times the mean: the speed limit holds for the peak.
   const double peak = w.air_velocity.norm() * (1.0 + w.gust_amplitude);
   if (peak > limits::kMaxAirSpeed) {
-    node.fail("gusts reach " + format_number(peak) + " m/s (|air_velocity| x (1 + gust_amplitude)), more than the "
-              "limit of " + format_number(limits::kMaxAirSpeed) + " m/s");
+    node.fail("gusts reach " + number_for_message(peak) + " m/s (|air_velocity| x (1 + gust_amplitude)), more than the "
+              "limit of " + number_for_message(limits::kMaxAirSpeed) + " m/s");
   }
   return w;
 }

@@ -1,5 +1,7 @@
 #include "util/message_text.h"
 
+#include <sstream>
+
 namespace pd {
 namespace {
 
@@ -83,6 +85,13 @@ std::string quoted_for_message(std::string_view s, std::size_t max_chars) {
   // The length goes after the closing quote, so the quoted part is only what the input holds.
   out += cut ? "...\"" + length_note(s) : "\"";
   return out;
+}
+
+std::string number_for_message(double x) {
+  std::ostringstream out;
+  out.precision(10);
+  out << x;
+  return out.str();
 }
 
 }  // namespace pd

@@ -26,4 +26,7 @@ std::string escaped_for_message(std::string_view s, std::size_t max_chars = kMes
 //   quoted_for_message("a\nb")  ->  "a\nb"   (backslash-n, no line break)
 std::string quoted_for_message(std::string_view s, std::size_t max_chars = kMessageTextMaxChars);
 
+// A number as a message shows it: up to 10 significant digits, no trailing zeros ("0.25", "1e+06").
+std::string number_for_message(double x);
+
 }  // namespace pd

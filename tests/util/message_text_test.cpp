@@ -54,5 +54,13 @@ TEST(MessageText, CutCountsEscapesAndUtf8SequencesAsOneCharacterAndNeverSplitsTh
   EXPECT_EQ(escaped_for_message("\xe2\x82\xac\xe2\x82\xac", 1), "\xe2\x82\xac...(6 chars)");
 }
 
+TEST(MessageText, NumbersShowTenSignificantDigitsWithoutTrailingZeros) {
+  EXPECT_EQ(number_for_message(0.25), "0.25");
+  EXPECT_EQ(number_for_message(1e6), "1000000");
+  EXPECT_EQ(number_for_message(1e12), "1e+12");
+  EXPECT_EQ(number_for_message(3.14159265358979), "3.141592654");
+  EXPECT_EQ(number_for_message(-0.0005), "-0.0005");
+}
+
 }  // namespace
 }  // namespace pd
