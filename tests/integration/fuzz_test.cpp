@@ -49,7 +49,13 @@ using test::Family;
 using test::FarmTest;
 using Clock = std::chrono::steady_clock;
 
-constexpr int kQuota = 10000;        // malformed messages per socket (the issue asks for at least 10 000)
+// Malformed messages per socket: 10 000 (what CI runs), or PD_FUZZ_QUOTA when it is larger (issue 47
+// asks for 20 000 in the sanitizer build: run by hand, docs/fuzzing.md).
+int quota() {
+  const char* q = std::getenv("PD_FUZZ_QUOTA");
+  const long asked = q && *q ? std::strtol(q, nullptr, 10) : 0;
+  return asked > 10000 && asked <= 1000000 ? static_cast<int>(asked) : 10000;
+}
 constexpr std::size_t kWindow = 32;  // unanswered messages per peer
 // A client's unanswered requests: the scheduler queues at most kClientReplyQueue (16) replies to one
 // client and drops the rest (scheduler/scheduler.h); libzmq learns that the client read some only
@@ -438,7 +444,7 @@ class Fuzz {
       c.name =
           (c.family == Family::report ? (c.hello ? "fuzz-hello-" : "fuzz-anon-") : "fuzz-client-") + std::to_string(k);
       c.seed = seed + k;
-      c.quota = c.family == Family::report ? kQuota / 4 : kQuota / 2;
+      c.quota = c.family == Family::report ? quota() / 4 : quota() / 2;
       c.deadline = deadline;
       c.abort = &abort_;
       c.sent = &sent_;
@@ -580,8 +586,8 @@ TEST_F(FarmTest, TenThousandMalformedMessagesOnEachSocketAreRefusedWhileAJobRuns
   ASSERT_TRUE(job_error.empty()) << job_error;
   expect_frames_of_pd_simulate(farm, job, scene);
 
-  EXPECT_GE(t.malformed[0], kQuota);
-  EXPECT_GE(t.malformed[1], kQuota);
+  EXPECT_GE(t.malformed[0], quota());
+  EXPECT_GE(t.malformed[1], quota());
   EXPECT_EQ(t.matched, t.answers);
   EXPECT_EQ(t.answers, t.malformed[0] + t.malformed[1] + t.well_formed[0] + t.well_formed[1]);
   EXPECT_GE(t.error_replies, t.malformed[1]);  // every malformed request got an ErrorReply
