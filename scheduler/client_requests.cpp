@@ -86,9 +86,7 @@ protocol::Reply Scheduler::serve(protocol::SubmitJob& m) {
     tasks = farm::job_tasks(g);
   } catch (const std::invalid_argument& e) {
     return error(e.what());
-  } catch (const InputError& e) {
-    return error(e.what());
-  }
+  }  // an InputError of check_job_size becomes the error reply in on_client_message, like any other
   const int64_t id = store_->add_job(job, tasks);
   event("job_submitted", id, 0, 0,
         job.name + ": " + std::to_string(job.frames) + " frames, " + std::to_string(job.levels) + " levels, K = " +
@@ -114,11 +112,9 @@ protocol::Reply Scheduler::serve(protocol::RefineJob& m) {
   g.subsets = m.subsets;
   g.preview_chunk = job->spec.preview_chunk;
   g.stitch = m.stitch;
-  try {  // its frames' storage was checked at submit, for every level
-    farm::check_job_size("refine", g, true, 0, 2.0, std::numeric_limits<double>::infinity());
-  } catch (const InputError& e) {
-    return error(e.what());
-  }
+  // Its frames' storage was checked at submit, for every level. A refusal (InputError) is the error
+  // reply (on_client_message).
+  farm::check_job_size("refine", g, true, 0, 2.0, std::numeric_limits<double>::infinity());
   store_->set_subsets(m.job, m.subsets, m.stitch);
   store_->set_preview_only(m.job, false);
   if (m.subsets >= 2) {

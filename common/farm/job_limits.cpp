@@ -3,7 +3,6 @@
 #include <sys/statvfs.h>
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
 
 #include "util/input_error.h"
@@ -14,7 +13,7 @@ namespace pd::farm {
 int64_t job_task_bound(const GraphOptions& o, bool refinement_only) {
   const int64_t N = std::max(o.frames, 1), levels = std::max(o.levels, 1);
   const int64_t K = std::min<int64_t>(std::max(o.subsets, 1), N);
-  const int64_t chunk = std::min<int64_t>(o.preview_chunk > 0 ? o.preview_chunk : std::min<int64_t>(50, N), N);
+  const int64_t chunk = std::min<int64_t>(o.preview_chunk > 0 ? o.preview_chunk : default_preview_chunk(std::max(o.frames, 1)), N);
   // Per refinement level: K subsets, and a stitch at each of the K - 1 seams when stitching.
   const int64_t per_level = K + (o.stitch >= 2 ? K - 1 : 0);
   const int64_t refinement = (levels - 1) * per_level;
@@ -39,7 +38,7 @@ void check_job_size(const std::string& request, const GraphOptions& o, bool refi
   if (tasks > kMaxJobTasks)
     throw InputError(r + std::to_string(o.frames) + " frames, " + std::to_string(o.levels) + " levels, " +
                      std::to_string(o.subsets) + " subsets and preview chunks of " +
-                     std::to_string(o.preview_chunk > 0 ? o.preview_chunk : std::min(50, o.frames)) +
+                     std::to_string(o.preview_chunk > 0 ? o.preview_chunk : default_preview_chunk(o.frames)) +
                      " frames would need " + std::to_string(tasks) + " tasks; the limit is " +
                      std::to_string(kMaxJobTasks) + " (fewer --subsets, a longer --preview-chunk)");
   const double bytes = job_frame_bytes(o.frames, o.levels, finest_vertices, ratio);
