@@ -28,6 +28,7 @@
 #include "store/frame_store.h"
 #include "support/farm.h"
 #include "support/fuzz_messages.h"
+#include "support/zmtp_peer.h"
 #include "support/process.h"
 #include "support/test_paths.h"
 #include "util/process_setup.h"

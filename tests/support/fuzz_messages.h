@@ -1,8 +1,8 @@
 #pragma once
-// Hostile input for the farm's sockets (tests/integration/fuzz_test.cpp, hostile_peers_test.cpp): a seeded, reproducible
-// generator of malformed multipart messages for one message family (protocol/protocol.h), and a raw
-// ZMTP 3.0 peer that can say what a ZeroMQ socket never would (a frame header declaring more bytes
-// than ZMQ_MAXMSGSIZE, a multipart message that never ends).
+// Hostile input for the farm's sockets (tests/integration/fuzz_test.cpp, hostile_peers_test.cpp): a
+// seeded, reproducible generator of malformed multipart messages for one message family
+// (protocol/protocol.h). The raw ZMTP peer that says what a ZeroMQ socket never would is
+// support/zmtp_peer.h.
 //
 // The generator starts from a valid encoded message of every type of the family (and, now and then,
 // of the other families) and mutates it: part 0 truncated, extended, bit-flipped, made invalid
@@ -108,38 +108,5 @@ bool valid_utf8(const std::string& s);
 // A short printable rendering of a message for failure reports: part count and sizes, and the
 // first `bytes` bytes of part 0 with non-printable bytes as \xNN.
 std::string describe_parts(const protocol::Parts& parts, std::size_t bytes = 160);
-
-// ---------------------------------------------------------------------------------------------------
-// A DEALER spoken by hand over TCP (ZMTP 3.0, NULL mechanism), for what libzmq will not send.
-
-class RawZmtpPeer {
- public:
-  // Connects to a tcp://host:port endpoint and (with `handshake`) does the handshake as a DEALER;
-  // runtime_error naming the endpoint when the connection or the handshake fails within timeout_ms.
-  RawZmtpPeer(const std::string& endpoint, int timeout_ms, bool handshake = true);
-  ~RawZmtpPeer();
-  RawZmtpPeer(const RawZmtpPeer&) = delete;
-  RawZmtpPeer& operator=(const RawZmtpPeer&) = delete;
-
-  // Bytes as they are (no framing).
-  void send_raw(const std::string& bytes) { write_all(bytes); }
-  // One message frame: `more` set when another frame of the same message follows.
-  void send_frame(const std::string& body, bool more);
-  // A long frame header declaring `size` bytes and nothing after it.
-  void send_frame_header(uint64_t size, bool more);
-  // Reads one whole message (frames up to one without MORE); nullopt after timeout_ms or when the
-  // peer closed the connection.
-  std::optional<protocol::Parts> recv_message(int timeout_ms);
-  // True once the other end has closed the connection (read returns 0 or an error) within timeout_ms.
-  bool closed_by_peer(int timeout_ms);
-
- private:
-  void greet(int timeout_ms);  // greeting and READY, both ways
-  void write_all(const std::string& bytes);
-  bool read_exact(std::string& out, std::size_t n, int timeout_ms);
-
-  int fd_ = -1;
-  std::string endpoint_;
-};
 
 }  // namespace pd::test
