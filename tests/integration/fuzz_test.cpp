@@ -65,14 +65,6 @@ constexpr int kFrames = 20;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// A /proc/<pid>/status field in kiB (VmHWM: peak resident set), -1 when unreadable.
-long proc_status_kib(pid_t pid, const std::string& field) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind(field + ":", 0) == 0) return std::strtol(line.c_str() + field.size() + 1, nullptr, 10);
-  return -1;
-}
 
 // Running and not a zombie (a dead child stays a zombie until the fixture reaps it).
 bool alive(pid_t pid) {
@@ -549,7 +541,7 @@ void expect_log(const std::string& log, const Totals& t, const Claims& claims) {
 TEST_F(FarmTest, TenThousandMalformedMessagesOnEachSocketAreRefusedWhileAJobRunsToTheFramesOfPdSimulate) {
   test::Farm& farm = start_farm(2, "fuzz_farm");
   const pid_t scheduler = farm.scheduler().pid();
-  const long hwm_before = proc_status_kib(scheduler, "VmHWM");
+  const long hwm_before = test::proc_status_kib(scheduler, "VmHWM");
   const uint64_t seed = test::fuzz_seed();
   std::printf("seeds %llu.. (PD_FUZZ_SEED)\n", static_cast<unsigned long long>(seed));
   zmq::context_t ctx(1);
@@ -597,7 +589,7 @@ TEST_F(FarmTest, TenThousandMalformedMessagesOnEachSocketAreRefusedWhileAJobRuns
   EXPECT_GE(claims.sent, 128);
   expect_log(farm.scheduler_log(), t, claims);
 
-  const long hwm = proc_status_kib(scheduler, "VmHWM");
+  const long hwm = test::proc_status_kib(scheduler, "VmHWM");
   std::printf(
       "fuzz: %d + %d malformed messages (workers + clients socket), %d + %d well-formed, in %.1f s; the job "
       "ran from %.1f s to %.1f s under %ld of them; %d claims; tasks given to fuzz peers %d (+%d to the "

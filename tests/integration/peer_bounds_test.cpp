@@ -26,27 +26,9 @@ using namespace std::chrono_literals;
 using test::FarmTest;
 using Clock = std::chrono::steady_clock;
 
-// The scheduler's resident set, bytes (/proc/<pid>/status VmRSS).
-double resident_bytes(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  std::string key;
-  while (in >> key) {
-    if (key == "VmRSS:") {
-      double kib = 0.0;
-      in >> kib;
-      return kib * 1024.0;
-    }
-    std::getline(in, key);
-  }
-  return 0.0;
-}
-
-// Lines of the scheduler's log with `"event":"<kind>"`.
+// Events of `kind` in the scheduler's log so far.
 int log_count(const test::Farm& farm, const std::string& kind) {
-  std::ifstream in(farm.scheduler_log());
-  int n = 0;
-  for (std::string line; std::getline(in, line);) n += line.find("\"event\":\"" + kind + "\"") != std::string::npos;
-  return n;
+  return static_cast<int>(test::log_events(farm.scheduler_log(), kind).size());
 }
 
 bool wait_for_log(const test::Farm& farm, const std::string& kind, int count, std::chrono::seconds timeout) {
@@ -57,6 +39,9 @@ bool wait_for_log(const test::Farm& farm, const std::string& kind, int count, st
   }
   return true;
 }
+
+// The scheduler's resident set, bytes.
+double resident_bytes(pid_t pid) { return 1024.0 * static_cast<double>(test::proc_status_kib(pid, "VmRSS")); }
 
 TEST_F(FarmTest, PipelinedFetchesHoldAFewRepliesAndAFloodOfRefusedReportsStoresTwentyRows) {
   test::Farm& farm = start_farm(1, "peer_bounds");

@@ -91,4 +91,7 @@ std::string file_tail(const std::string& path, int lines = 40);
 // The whole file ("" when it cannot be read).
 std::string read_file_text(const std::string& path);
 
+// A /proc/<pid>/status field in kiB (VmRSS: resident set, VmHWM: its peak), -1 when unreadable.
+long proc_status_kib(pid_t pid, const std::string& field);
+
 }  // namespace pd::test
