@@ -1,7 +1,5 @@
 #include "frame_file_guard.h"
 
-#include <sys/resource.h>
-
 #include <chrono>
 #include <cstdio>
 #include <exception>
@@ -28,10 +26,7 @@ void check_frame_file_in_child(const std::string& path) {
   if (g_checker.empty()) return;
   const CommandResult r = run_command({g_checker, "check-frame-file", path}, kCheckTime);
   if (r.exit_code == 0 && !r.timed_out) return;
-  std::string first = r.err.substr(0, r.err.find('\n'));
-  const std::string prefix = "pd: error: ";
-  if (first.rfind(prefix, 0) == 0) first = first.substr(prefix.size());
-  if (r.exit_code == 2 && !first.empty()) throw InputError(first);
+  if (const std::optional<std::string> refused = check_refusal(r, "pd: error: ")) throw InputError(*refused);
   const std::string how = r.timed_out ? "did not finish within " + std::to_string(kCheckTime.count()) + " s"
                           : r.exit_code > 128 ? "crashed (killed by signal " + std::to_string(r.exit_code - 128) + ")"
                                               : "ended with exit " + std::to_string(r.exit_code);
@@ -40,10 +35,7 @@ void check_frame_file_in_child(const std::string& path) {
 }
 
 int check_frame_file_here(const std::string& path) {
-#if !defined(__SANITIZE_ADDRESS__)  // AddressSanitizer reserves terabytes of address space up front
-  const rlimit cap = {rlim_t{4} << 30, rlim_t{4} << 30};
-  setrlimit(RLIMIT_AS, &cap);
-#endif
+  cap_address_space(std::size_t{4} << 30);
   try {
     const FrameReader reader(path);
     read_hierarchy(path);  // nullopt when the file holds no stored hierarchy

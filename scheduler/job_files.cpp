@@ -64,10 +64,7 @@ void check_hierarchy_in_child(const std::string& self, const std::string& path, 
   const CommandResult r = run_command({self, "--check-hierarchy", path, "--hash", hash, "--levels", std::to_string(levels)},
                                       std::chrono::seconds(10));
   if (r.exit_code == 0 && !r.timed_out) return;
-  std::string first = r.err.substr(0, r.err.find('\n'));
-  const std::string prefix = "pd-scheduler: error: ";
-  if (first.rfind(prefix, 0) == 0) first = first.substr(prefix.size());
-  if (r.exit_code == 2 && !first.empty()) throw InputError(first);
+  if (const std::optional<std::string> refused = check_refusal(r, "pd-scheduler: error: ")) throw InputError(*refused);
   throw InputError(path + ": the hierarchy file could not be read: " +
                    (r.failure.empty() ? "its check exited " + std::to_string(r.exit_code) : r.failure) +
                    (r.exit_code > 128 ? " (killed by signal " + std::to_string(r.exit_code - 128) + ")" : ""));

@@ -3,7 +3,6 @@
 // keys, scheduler/security.h), prints the bound endpoints as one JSON line on stdout (so a script or
 // `pd run` can use port 0), and logs one JSON line per event on stderr.
 // `pd-scheduler --generate-keys PREFIX` only writes a key pair (farm/curve.h) and exits.
-#include <sys/resource.h>
 
 #include <atomic>
 #include <csignal>
@@ -20,6 +19,7 @@
 #include "scheduler/security.h"
 #include "util/input_error.h"
 #include "util/parent_watch.h"
+#include "util/subprocess.h"
 
 namespace {
 
@@ -34,10 +34,7 @@ void on_hangup(int) { g_reload_keys = true; }  // SIGHUP: reload --authorized-ke
 // reason on stderr when not. Its memory is capped first (4 GiB of address space): a crafted file
 // that makes HDF5 allocate without end fails here, not in the scheduler.
 int check_hierarchy(const std::string& file, const std::string& hash, int levels) {
-#if !defined(__SANITIZE_ADDRESS__)  // AddressSanitizer reserves terabytes of address space up front
-  const rlimit cap = {rlim_t{4} << 30, rlim_t{4} << 30};
-  setrlimit(RLIMIT_AS, &cap);
-#endif
+  pd::cap_address_space(std::size_t{4} << 30);
   try {
     pd::scheduler::check_hierarchy_file(file, hash, levels);
     return 0;

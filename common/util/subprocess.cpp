@@ -1,5 +1,7 @@
 #include "util/subprocess.h"
 
+#include <sys/resource.h>
+
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
@@ -131,6 +133,23 @@ CommandResult run_command(const std::vector<std::string>& argv, std::chrono::mil
     r.failure = name + ": exit " + std::to_string(r.exit_code) + (said.empty() ? "" : ": " + said);
   }
   return r;
+}
+
+void cap_address_space(std::size_t bytes) {
+#if !defined(__SANITIZE_ADDRESS__)
+  const rlimit cap = {static_cast<rlim_t>(bytes), static_cast<rlim_t>(bytes)};
+  setrlimit(RLIMIT_AS, &cap);
+#else
+  (void)bytes;
+#endif
+}
+
+std::optional<std::string> check_refusal(const CommandResult& r, const std::string& error_prefix) {
+  if (r.timed_out || r.exit_code != 2) return std::nullopt;
+  std::string first = r.err.substr(0, r.err.find('\n'));
+  if (first.rfind(error_prefix, 0) == 0) first = first.substr(error_prefix.size());
+  if (first.empty()) return std::nullopt;
+  return first;
 }
 
 }  // namespace pd

@@ -47,5 +47,20 @@ TEST(Subprocess, OutputIsCutAtTheLimit) {
   EXPECT_EQ(r.out.size(), kMaxCommandOutput);
 }
 
+TEST(Subprocess, ACheckRefusalIsItsFirstErrorLineOnlyWhenItExitedTwo) {
+  CommandResult r;
+  r.exit_code = 2;
+  r.err = "pd: error: f.h5: /@scene: missing attribute\nmore\n";
+  EXPECT_EQ(check_refusal(r, "pd: error: "), "f.h5: /@scene: missing attribute");
+  r.exit_code = 139;  // crashed: the caller says how
+  EXPECT_EQ(check_refusal(r, "pd: error: "), std::nullopt);
+  r.exit_code = 2;
+  r.timed_out = true;
+  EXPECT_EQ(check_refusal(r, "pd: error: "), std::nullopt);
+  r.timed_out = false;
+  r.err = "";
+  EXPECT_EQ(check_refusal(r, "pd: error: "), std::nullopt);
+}
+
 }  // namespace
 }  // namespace pd
