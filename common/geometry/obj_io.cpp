@@ -9,10 +9,7 @@
 #include <string_view>
 #include <vector>
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
+#include "geometry/regular_file.h"
 #include "util/message_text.h"
 
 namespace pd {
@@ -28,60 +25,6 @@ namespace {
 
 // Quotes a token for an error message, cut and escaped so a line of garbage cannot flood the terminal.
 std::string quoted(std::string_view token) { return quoted_for_message(token, 40); }
-
-const char* file_kind(mode_t mode) {
-  if (S_ISDIR(mode)) return "a directory";
-  if (S_ISFIFO(mode)) return "a FIFO";
-  if (S_ISCHR(mode)) return "a character device";
-  if (S_ISBLK(mode)) return "a block device";
-  if (S_ISSOCK(mode)) return "a socket";
-  return "not a regular file";
-}
-
-// Opens `path` for reading only if it is a regular file within the size limit. stat comes first, so
-// a FIFO or device is refused without an open() that could block; the open is non-blocking and
-// fstat checks again, so a file swapped for a FIFO in between cannot block either.
-std::FILE* open_regular_file(const std::string& path, const ObjLimits& limits) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) throw InputError(path + ": cannot open: " + std::strerror(errno));
-  auto check = [&](const struct stat& s) {
-    if (!S_ISREG(s.st_mode)) throw InputError(path + ": is " + file_kind(s.st_mode) + ", not an OBJ file");
-    if (static_cast<std::uintmax_t>(s.st_size) > limits.max_bytes) {
-      throw InputError(path + ": the file has " + std::to_string(s.st_size) + " bytes, more than the limit of " +
-                       std::to_string(limits.max_bytes));
-    }
-  };
-  check(st);
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) throw InputError(path + ": cannot open: " + std::strerror(errno));
-  struct stat opened {};
-  if (::fstat(fd, &opened) != 0) {
-    const int saved = errno;
-    ::close(fd);
-    throw InputError(path + ": cannot open: " + std::strerror(saved));
-  }
-  try {
-    check(opened);
-  } catch (...) {
-    ::close(fd);
-    throw;
-  }
-  // Regular files ignore O_NONBLOCK, but clear it so reads behave as documented everywhere.
-  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
-  std::FILE* file = ::fdopen(fd, "rb");
-  if (!file) {
-    const int saved = errno;
-    ::close(fd);
-    throw InputError(path + ": cannot open: " + std::strerror(saved));
-  }
-  return file;
-}
-
-// Closes the FILE* on every path out of read_obj, exceptions included.
-struct FileCloser {
-  std::FILE* file;
-  ~FileCloser() { std::fclose(file); }
-};
 
 // Reads one line without its '\n' into `line`; false at the end of the file (or on a read error,
 // which the caller tells apart with ferror). Stops at `max_bytes` + 1 bytes so an endless line
@@ -153,7 +96,7 @@ long long parse_index(std::string_view token, const std::string& path, long line
 }  // namespace
 
 TriMesh read_obj(const std::string& path, const ObjLimits& limits) {
-  std::FILE* in = open_regular_file(path, limits);
+  std::FILE* in = open_regular_file(path, limits.max_bytes, "an OBJ file");
   const FileCloser closer{in};
 
   std::vector<double> coords;     // x, y, z per vertex

@@ -91,6 +91,20 @@ ObjectPlan plan_object(const Scene& scene, std::size_t k) {
         std::unique(plan.settings.locked_vertices.begin(), plan.settings.locked_vertices.end()),
         plan.settings.locked_vertices.end());
   }
+  if (obj.motion && obj.motion->animation) {
+    // An animated obstacle keeps its whole mesh on every level: each level's cloth meets the body it
+    // will meet on the finest level (the contact promise holds against the full-resolution obstacle),
+    // and its vertices follow the cache's vertices one to one (scene_system.cpp's pins).
+    bool coarsened = hc.grid_coarsening;
+    for (int c : hc.vertex_counts) coarsened = coarsened || c != n;
+    if (coarsened)
+      throw InputError(object_prefix(scene, k) + "hierarchy: an animated obstacle keeps its whole mesh on every "
+                       "level (no coarsening, no vertex_counts below its " + std::to_string(n) + " vertices)");
+    plan.by_ratio = false;
+    plan.counts.assign(static_cast<std::size_t>(L) + 1, n);
+    plan.settings.coarser_levels = 0;
+    return plan;
+  }
   if (hc.grid_coarsening) return plan_grid(obj, scene, k, std::move(plan));
   if (hc.vertex_counts.empty()) {
     plan.settings.coarser_levels = L;
@@ -209,6 +223,8 @@ std::string hash_of(const Scene& scene, const std::vector<ObjectPlan>& plans) {
     h.i64(static_cast<long long>(plan.settings.locked_vertices.size()));
     for (int v : plan.settings.locked_vertices) h.i64(v);
     h.i64(obj.obstacle ? 1 : 0);
+    // Hashed only when set, so that other scenes keep their hashes: an animated obstacle is kept whole.
+    if (obj.motion && obj.motion->animation) h.str("animated");
     h.i64(static_cast<long long>(obj.hierarchy.vertex_counts.size()));
     for (int c : obj.hierarchy.vertex_counts) h.i64(c);
     // Hashed only when set, so that quadric-coarsened scenes keep their hashes.

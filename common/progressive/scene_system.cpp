@@ -32,7 +32,11 @@ void add_pins(const PinGroup& group, int offset, SceneSystem& sys) {
     script = static_cast<int>(sys.scripts.size());
     sys.scripts.push_back(*group.script);
   }
-  for (int v : group.vertices) sys.pins.push_back({offset + v, sys.x0.segment<3>(3 * (offset + v)), script});
+  // An animated obstacle's vertex v follows the animation's vertex v: its level mesh is its finest
+  // mesh on every level (scene_hierarchy.cpp keeps it whole), so the ids agree.
+  const bool animated = group.script && group.script->animation;
+  for (int v : group.vertices)
+    sys.pins.push_back({offset + v, sys.x0.segment<3>(3 * (offset + v)), script, animated ? v : -1});
 }
 
 // Where a vertex starting at X is at time t under keyframed motion (see PinScript).
@@ -146,6 +150,7 @@ SceneSystem build_scene_system(const Scene& scene, bool own_shell_forces) {
 Vec3 pin_position(const SceneSystem& sys, const PinnedVertex& pin, double t) {
   if (pin.script < 0) return pin.start;
   const PinScript& s = sys.scripts[pin.script];
+  if (s.animation) return s.animation->position(pin.source, t);
   if (!s.keyframes.empty()) return keyframed_position(s.keyframes, pin.start, t);
   const double tau = std::clamp(t - s.start, 0.0, s.end - s.start);
   const double rate = s.angular_velocity.norm();

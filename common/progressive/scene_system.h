@@ -23,6 +23,7 @@ struct PinnedVertex {
   int vertex = 0;        // global vertex index
   Vec3 start;            // position at t = 0, m
   int script = -1;       // index into SceneSystem::scripts, -1 = fixed in place
+  int source = -1;       // the vertex of the script's animation it follows (animated obstacles only)
 };
 
 struct SceneSystem {

@@ -2,6 +2,7 @@
 // A parsed, validated scene: everything a simulation needs, in SI units.
 // docs/scene-format.md documents the JSON keys that fill these fields.
 #include <array>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -11,6 +12,7 @@
 #include "geometry/mesh.h"
 #include "hierarchy/grid_coarsening.h"
 #include "physics/hessian_projection.h"
+#include "scene/vertex_animation.h"
 
 namespace pd {
 
@@ -47,6 +49,10 @@ struct PinScript {
   double start = 0.0;                    // s
   double end = 1e300;                    // s
   std::vector<Keyframe> keyframes;       // times strictly increasing; replaces the fields above
+  // A deforming obstacle's vertex animation (obstacles only): vertex i of the object is at
+  // animation->position(i, t); replaces every field above. Shared, read-only: the levels and their
+  // systems all point at the one cache.
+  std::shared_ptr<const VertexAnimation> animation;
 };
 
 struct PinGroup {
@@ -134,7 +140,7 @@ struct SceneObject {
   // An obstacle is a collider, not a simulated object: every vertex follows `motion` (or stays
   // put), it has no elastic energy and no mass, and `material` is unused.
   bool obstacle = false;
-  std::optional<PinScript> motion;     // obstacles only
+  std::optional<PinScript> motion;     // obstacles only: rigid (keyframes, velocity) or an animation
   std::optional<StrainLimit> strain_limit;
   ObjectHierarchyConfig hierarchy;     // coarser levels of this object (every object has them)
 };

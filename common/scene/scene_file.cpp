@@ -19,6 +19,7 @@
 #include "scene/scene_contact.h"
 #include "scene/scene_hierarchy_config.h"
 #include "scene/scene_json.h"
+#include "scene/scene_animation.h"
 #include "scene/scene_mesh.h"
 #include "util/input_error.h"
 #include "util/message_text.h"
@@ -285,11 +286,12 @@ Pressure read_pressure(const JsonNode& node, const TriMesh& rest, const Position
 
 bool valid_name_char(char c) { return static_cast<unsigned char>(c) >= 0x20 && c != '/' && c != 0x7f; }
 
+// shot_end: frames x time_step (s), the time an obstacle's animation must last until.
 SceneObject read_object(const JsonNode& node, int index, const std::string& base_dir, bool scene_has_wind,
-                        const MeshBudget& budget) {
+                        const MeshBudget& budget, double shot_end) {
   node.expect_keys({"name", "mesh", "transform", "initial_positions", "initial_velocity", "material", "pins",
-                    "pressure", "wind", "obstacle", "motion", "self_contact", "ground_contact", "strain_limit",
-                    "hierarchy"});
+                    "pressure", "wind", "obstacle", "motion", "animation", "self_contact", "ground_contact",
+                    "strain_limit", "hierarchy"});
   SceneObject obj;
   obj.name = "object_" + std::to_string(index);
   if (auto name = node.optional("name")) {
@@ -307,6 +309,16 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
   std::optional<JsonNode> posed_node = node.optional("initial_positions");
   if (posed_node) posed = read_posed(*posed_node, mesh, mesh_node.path(), base_dir);
 
+  // An animated obstacle: its cache frames are placed like its mesh; read before the mesh moves.
+  std::shared_ptr<const VertexAnimation> animation;
+  if (auto a = node.optional("animation")) {
+    if (!node.has("obstacle") || !node.required("obstacle").boolean())
+      a->fail("applies to obstacles only (\"obstacle\": true)");
+    for (const char* key : {"motion", "initial_positions"})
+      if (auto k = node.optional(key)) k->fail("does not apply to an animated obstacle (the animation moves it)");
+    animation = read_animation(*a, base_dir, mesh, [&](Positions& x) { transform.apply(x); }, shot_end);
+  }
+
   transform.apply(mesh.V);
   scene_json::check_positions(mesh_node, mesh.V, "rest");
   validate_mesh(mesh, node.file() + ": " + mesh_node.path());
@@ -316,6 +328,8 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
     scene_json::check_positions(posed_node->required("obj"), *posed, "initial");
     validate_pose(obj.rest, *posed, node.file() + ": " + posed_node->required("obj").path());
     obj.initial = std::move(*posed);
+  } else if (animation) {
+    obj.initial = animation->positions(0.0);
   } else {
     obj.initial = obj.rest.V;
   }
@@ -330,6 +344,10 @@ SceneObject read_object(const JsonNode& node, int index, const std::string& base
     if (auto m = node.optional("motion")) {
       obj.motion = read_script(*m);
       scene_json::check_script_speed(*m, *obj.motion, obj.initial, nullptr);
+    }
+    if (animation) {
+      obj.motion.emplace();
+      obj.motion->animation = std::move(animation);
     }
     // Obstacles never touch the ground: both are fixed, so the barrier between them could only
     // block the obstacle's motion.
@@ -454,7 +472,8 @@ Scene parse_scene(const std::string& json_text, const std::string& path_for_mess
   std::map<std::string, std::size_t> names;  // name -> index, so 1000 objects cost no 10^6 comparisons
   MeshBudget budget;
   for (std::size_t i = 0; i < list.size(); ++i) {
-    SceneObject obj = read_object(list[i], static_cast<int>(i), base_dir, scene.wind.has_value(), budget);
+    SceneObject obj = read_object(list[i], static_cast<int>(i), base_dir, scene.wind.has_value(), budget,
+                                  scene.frames * scene.time_step);
     auto [it, added] = names.emplace(obj.name, i);
     if (!added) {
       JsonNode where = list[i].has("name") ? list[i].required("name") : list[i];

@@ -36,12 +36,6 @@ void check_vertex_budget(const JsonNode& node, long long vertices, long long fac
   }
 }
 
-std::string resolve(const std::string& base_dir, const std::string& file) {
-  fs::path p(file);
-  if (p.is_relative() && !base_dir.empty()) p = fs::path(base_dir) / p;
-  return p.lexically_normal().string();
-}
-
 
 // Runs a mesh generator; anything it throws becomes an InputError at the mesh's key path.
 template <class Make>
@@ -57,6 +51,12 @@ auto generate(const JsonNode& mesh, Make make) -> decltype(make()) {
 
 }  // namespace
 
+std::string resolve_scene_path(const std::string& base_dir, const std::string& file) {
+  fs::path p(file);
+  if (p.is_relative() && !base_dir.empty()) p = fs::path(base_dir) / p;
+  return p.lexically_normal().string();
+}
+
 TriMesh read_obj_at(const JsonNode& path_node, const std::string& base_dir) {
   std::string file = path_node.string(scene_json::kMaxPathBytes);
   if (file.empty()) path_node.fail_got("must be a path to an OBJ file");
@@ -64,7 +64,7 @@ TriMesh read_obj_at(const JsonNode& path_node, const std::string& base_dir) {
   obj_limits.max_vertices = kMaxSceneMeshVertices;
   obj_limits.max_faces = kMaxSceneMeshFaces;
   try {
-    return read_obj(resolve(base_dir, file), obj_limits);
+    return read_obj(resolve_scene_path(base_dir, file), obj_limits);
   } catch (const InputError& e) {
     path_node.fail(e.what());
   }

@@ -18,6 +18,9 @@ struct MeshBudget {
   long long vertices_before = 0;
 };
 
+// A file the scene names: relative paths are relative to the scene file's folder (base_dir).
+std::string resolve_scene_path(const std::string& base_dir, const std::string& file);
+
 // The OBJ file a path node names (relative to base_dir), within the per-object limits.
 TriMesh read_obj_at(const scene_json::JsonNode& path_node, const std::string& base_dir);
 
