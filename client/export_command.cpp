@@ -20,7 +20,7 @@
 #include "geometry/obj_io.h"
 #include "frame_file_guard.h"
 #include "output_files.h"
-#include "pc2_writer.h"
+#include "geometry/pc2_writer.h"
 #include "store/frame_store.h"
 #include "store/hierarchy_store.h"
 #include "util/input_error.h"

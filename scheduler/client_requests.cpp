@@ -9,6 +9,7 @@
 #include "farm/scene_source.h"
 #include "farm/task_graph.h"
 #include "progressive/level_system.h"
+#include "scene/scene_animation.h"
 #include "scheduler/scheduler.h"
 #include "util/input_error.h"
 
@@ -59,6 +60,11 @@ protocol::Reply Scheduler::serve(protocol::SubmitJob& m) {
   job.name = scene.name;
   job.scene = m.scene;
   job.frames = m.frames > 0 ? m.frames : scene.frames;
+  try {
+    check_animations_cover(scene, job.frames);
+  } catch (const InputError& e) {
+    return error(e.what());
+  }
   job.levels = m.levels > 0 ? m.levels : scene.hierarchy.levels;
   job.subsets = m.subsets;
   job.priority = m.priority;

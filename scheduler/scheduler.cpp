@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "farm/messaging.h"
+#include "farm/scene_source.h"
 #include "farm/task_graph.h"
 #include "scheduler/security.h"
 
@@ -17,6 +18,13 @@ namespace pd::scheduler {
 namespace {
 
 std::vector<double> as_vector(const Positions& x) { return std::vector<double>(x.data(), x.data() + x.size()); }
+
+// A scene source's size as sent (its text and files), bytes: the log says what a first assignment carried.
+std::size_t scene_bytes(const protocol::SceneSource& s) {
+  std::size_t n = s.text.size();
+  for (const protocol::SceneFile& f : s.files) n += f.content.size();
+  return n;
+}
 
 
 }  // namespace
@@ -231,7 +239,10 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
   a.frames = job.spec.frames;
   a.levels = job.spec.levels;
   a.hessian = job.spec.hessian;
-  a.scene = job.spec.scene;
+  auto hash = scene_hashes_.find(job.id);
+  if (hash == scene_hashes_.end()) hash = scene_hashes_.emplace(job.id, farm::scene_source_hash(job.spec.scene)).first;
+  a.scene_hash = hash->second;
+  if (!s.scenes.count(a.scene_hash)) a.scene = job.spec.scene;
   if (t.kind == protocol::TaskKind::level) {
     JobFile* f = files_.find(t.job);
     if (!f) {  // cannot happen: level tasks wait for the hierarchy task
@@ -262,6 +273,7 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
   }
   send_worker(identity, protocol::encode(a));
   if (a.hierarchy_blob) s.hierarchies.insert(a.hierarchy_hash);
+  s.scenes.insert(a.scene_hash);
   s.attempt = claim.attempt;
   s.task = t.id;
   s.job = t.job;
@@ -273,7 +285,8 @@ bool Scheduler::assign(const std::string& identity, Session& s, const Claim& cla
             (t.kind == protocol::TaskKind::hierarchy ? std::string("hierarchy")
                                                      : "level " + std::to_string(t.level) + (t.stitch ? " stitch" : "")) +
             " frames (" + std::to_string(t.first) + ", " + std::to_string(t.last) + "] to " +
-            s.name + (a.start > t.first ? ", continuing from frame " + std::to_string(a.start) : ""));
+            s.name + (a.start > t.first ? ", continuing from frame " + std::to_string(a.start) : "") +
+            (a.scene ? ", with the scene (" + std::to_string(scene_bytes(*a.scene)) + " bytes)" : ""));
   top_up_feed(identity, s);
   return true;
 }

@@ -68,6 +68,7 @@ struct Session {
   std::string name;
   Clock::time_point last_heard, last_sent;
   std::set<std::string> hierarchies;  // hashes this worker has (sent to it, or built by it)
+  std::set<std::string> scenes;       // scene hashes sent to it (AssignTask.scene_hash)
   int64_t attempt = 0, task = 0, job = 0;  // the attempt it runs; 0 when idle
   bool draining = false;  // told to cancel; free once a heartbeat says it runs nothing
   std::set<int> fed;      // frames of the level below sent (queued whole) for the running attempt
@@ -179,6 +180,9 @@ class Scheduler {
   std::chrono::milliseconds heartbeat_;
   // Per job and level: summed solve time and count of frames reported (for ETAs; approximate).
   std::map<std::pair<int64_t, int>, std::pair<double, int>> step_seconds_;
+  // Per job: the hash of its scene source (farm::scene_source_hash), computed at its first dispatch
+  // from the stored scene (a cache: rebuilt from SQLite after a restart).
+  std::map<int64_t, std::string> scene_hashes_;
 };
 
 }  // namespace pd::scheduler

@@ -17,6 +17,7 @@
 #include "progressive/level_system.h"
 #include "progressive/level_task.h"
 #include "hierarchy/safe_upsampling.h"
+#include "scene/scene_file.h"
 #include "store/hierarchy_store.h"
 
 namespace pd::worker {
@@ -44,10 +45,31 @@ Eigen::VectorXd to_vector(const std::vector<double>& v) {
   return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
 }
 
-// The scene of an assignment with the job's frame and level counts (the job may override both).
-Scene job_scene(const protocol::AssignTask& task, const std::string& job_dir) {
+// The scene of an assignment with the job's frame and level counts (the job may override both). A
+// scene sent with the assignment is kept under <scratch>/scenes/<hash>/ (its files, its text, its
+// name), so the later assignments of this session that name the hash without the scene (the
+// scheduler sends each scene once per session) read it from there.
+Scene job_scene(const protocol::AssignTask& task, const std::string& scratch_dir, const std::string& job_dir) {
   fs::create_directories(job_dir);
-  Scene scene = farm::scene_from_source(task.scene, job_dir);
+  const fs::path dir = fs::path(scratch_dir) / "scenes" / task.scene_hash;  // hex: checked by the decoder
+  Scene scene;
+  if (task.scene) {
+    const std::string hash = farm::scene_source_hash(*task.scene);
+    if (hash != task.scene_hash)
+      throw std::runtime_error("the scene sent with task " + std::to_string(task.task) + " has hash " + hash +
+                               ", the task names " + task.scene_hash);
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    scene = farm::scene_from_source(*task.scene, (dir / "files").string());
+    write_file((dir / "name").string(), task.scene->name);
+    write_file((dir / "scene.json").string(), task.scene->text);
+  } else {
+    if (!fs::exists(dir / "scene.json"))
+      throw std::runtime_error("no scene " + task.scene_hash + " on this worker and none was sent with task " +
+                               std::to_string(task.task));
+    scene = parse_scene(read_file((dir / "scene.json").string()), read_file((dir / "name").string()),
+                        (dir / "files").string());
+  }
   if (task.frames >= 1) scene.frames = task.frames;
   if (task.levels >= 1) scene.hierarchy.levels = task.levels;
   return scene;
@@ -227,7 +249,7 @@ void TaskRunner::finish(protocol::Parts last) {
 
 protocol::Parts TaskRunner::run_hierarchy(const protocol::AssignTask& task) {
   const std::string job_dir = scratch_dir_ + "/job-" + std::to_string(task.job);
-  const Scene scene = job_scene(task, job_dir);
+  const Scene scene = job_scene(task, scratch_dir_, job_dir);
   const std::string path = job_dir + "/hierarchy-" + std::to_string(task.attempt) + ".h5";
   auto h = std::make_shared<const SceneHierarchy>(load_or_build_hierarchy(scene, path));
   // Every level must start admissibly (a coarse level can overlap where the finest does not), as
@@ -279,7 +301,7 @@ void TaskRunner::run_level(const protocol::AssignTask& task) {
     throw std::runtime_error("injected failure: this worker fails every level-" + std::to_string(fail_level_) +
                              " task (--fail-level)");
   const std::string job_dir = scratch_dir_ + "/job-" + std::to_string(task.job);
-  const Scene scene = job_scene(task, job_dir);
+  const Scene scene = job_scene(task, scratch_dir_, job_dir);
   const std::shared_ptr<const SceneHierarchy> h = hierarchy_for(task, job_dir);
   LevelTaskInputs inputs;
   if (task.level >= 1) inputs.below = [this](int t) { return wait_below(t); };

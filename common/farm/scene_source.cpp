@@ -9,7 +9,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "scene/scene_animation.h"
 #include "scene/scene_file.h"
+#include "util/fnv1a.h"
 #include "util/input_error.h"
 
 namespace pd::farm {
@@ -51,7 +53,7 @@ class FileCollector {
     const std::string problem = relative_path_problem(written);
     if (!problem.empty()) {
       throw InputError(what + ": " + problem +
-                       "; a farm job needs OBJ paths relative to the scene file's folder (without \"..\")");
+                       "; a farm job needs file paths relative to the scene file's folder (without \"..\")");
     }
     if (!seen_.insert(fs::path(written).lexically_normal().string()).second) return;
     files_.push_back({written, read_bytes(base_dir_ / written, what)});
@@ -92,10 +94,26 @@ protocol::SceneSource read_scene_source(const std::string& path, Scene* loaded) 
     if (mesh.at("type") == "obj") files.add(mesh.at("path").get<std::string>(), at + ".mesh.path");
     const auto posed = object.find("initial_positions");
     if (posed != object.end()) files.add(posed->at("obj").get<std::string>(), at + ".initial_positions.obj");
+    const auto animation = object.find("animation");
+    if (animation != object.end())
+      for (const std::string& file : animation_files(*animation)) files.add(file, at + ".animation");
   }
   source.files = files.take();
   if (loaded != nullptr) *loaded = std::move(scene);
   return source;
+}
+
+std::string scene_source_hash(const protocol::SceneSource& source) {
+  Fnv1a h;
+  h.str("pd-scene-source-1");
+  h.str(source.name);
+  h.str(source.text);
+  h.i64(static_cast<long long>(source.files.size()));
+  for (const protocol::SceneFile& f : source.files) {
+    h.str(f.path);
+    h.str(f.content);
+  }
+  return h.hex();
 }
 
 Scene scene_from_source(const protocol::SceneSource& source, const std::string& scratch_dir) {

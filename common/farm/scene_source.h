@@ -24,6 +24,10 @@ namespace pd::farm {
 // `loaded`, when given, receives the Scene load_scene read (so a caller need not read it twice).
 protocol::SceneSource read_scene_source(const std::string& path, Scene* loaded = nullptr);
 
+// A hex digest of everything in `source` (name, text, every file's path and bytes): the farm sends a
+// job's scene to a worker once and names it by this hash after (protocol::AssignTask.scene_hash).
+std::string scene_source_hash(const protocol::SceneSource& source);
+
 // Writes every file of `source` under `scratch_dir` (creating folders as needed) and parses the
 // scene text with OBJ paths resolved there: parse_scene(source.text, source.name, scratch_dir).
 // A file path that is empty, absolute or has a ".." component, or that names the same file as an

@@ -5,7 +5,7 @@
 //   char[12] "POINTCACHE2\0", int32 file version (1), int32 number of points, float32 start frame,
 //   float32 sample rate (frames per sample), int32 number of samples   (32 bytes)
 //   then, sample after sample, each point's x, y, z as float32          (samples x points x 12 bytes)
-// (The writer, for `pd export --format pc2`, is client/pc2_writer.h.)
+// (The writer, for `pd export --format pc2` and the character generator, is geometry/pc2_writer.h.)
 #include <cstdint>
 #include <string>
 #include <vector>

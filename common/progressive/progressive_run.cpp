@@ -7,6 +7,7 @@
 
 #include "progressive/contact_control.h"
 #include "progressive/frame_stats.h"
+#include "scene/scene_animation.h"
 #include "store/frame_store.h"
 #include "store/hierarchy_store.h"
 #include "util/input_error.h"
@@ -24,6 +25,7 @@ double since(std::chrono::steady_clock::time_point t) {
 ProgressiveRunReport run_progressive(const Scene& input_scene, const ProgressiveRunOptions& options) {
   Scene scene = input_scene;
   if (options.frames >= 1) scene.frames = options.frames;
+  check_animations_cover(scene, scene.frames);
   ProgressiveRunReport report;
   const auto t_hierarchy = std::chrono::steady_clock::now();
   const SceneHierarchy h = build_scene_hierarchy(scene);

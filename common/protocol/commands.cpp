@@ -34,7 +34,8 @@ Parts encode(const AssignTask& m) {
   h["frames"] = m.frames;
   h["levels"] = m.levels;
   h["hessian"] = m.hessian;
-  h["scene"] = wire::scene_json(m.scene);
+  h["scene_hash"] = m.scene_hash;
+  if (m.scene) h["scene"] = wire::scene_json(*m.scene);
   h["hierarchy_hash"] = m.hierarchy_hash;
   Parts data;
   if (m.hierarchy_blob) {
@@ -137,7 +138,12 @@ Command decode_assign(const Message& msg) {
   m.frames = f.count("frames");
   m.levels = f.count("levels");
   m.hessian = f.text("hessian");
-  m.scene = wire::read_scene(f.object("scene"));
+  m.scene_hash = f.text("scene_hash");
+  // A worker names a folder after it: lower-case hex only (farm::scene_source_hash's digits).
+  if (m.scene_hash.empty() || m.scene_hash.size() > 64 ||
+      m.scene_hash.find_first_not_of("0123456789abcdef") != std::string::npos)
+    throw ProtocolError("assign: field 'scene_hash': not 1 to 64 lower-case hex digits");
+  if (f.has("scene")) m.scene = wire::read_scene(f.object("scene"));
   m.hierarchy_hash = f.text("hierarchy_hash");
   m.own_kappa = f.optional_number("own_kappa");
   const bool has_blob = f.has("hierarchy_bytes");

@@ -43,7 +43,9 @@ namespace pd::protocol {
 // 7: seam stitches: AssignTask.guides, SubmitJob.stitch, RefineJob.stitch, TaskStatus.stitch,
 //    JobStatus.stitch; JobStatus.seams.
 // 8: a stitch's guide frames stream as GuideFrame commands; AssignTask.guides becomes AssignTask.stitch.
-constexpr int kProtocolVersion = 8;
+// 9: AssignTask.scene_hash, and AssignTask.scene only when the worker has not been sent that scene;
+//    scene files with bytes that are not plain text travel as "content_base64" (PC2 caches).
+constexpr int kProtocolVersion = 9;
 
 // Upper bound on a whole message (all parts), bytes; larger messages are refused when decoded (and
 // sockets set ZMQ_MAXMSGSIZE to it). 1 GiB: a job file fetched in one reply must fit.
@@ -147,7 +149,11 @@ struct AssignTask {
   int frames = 0;  // the job's frame count N (overrides the scene's)
   int levels = 0;  // the job's hierarchy level count (overrides the scene's hierarchy.levels)
   std::string hessian;  // prolonged Hessian name ("auto", "lagged", "galerkin", "coarse", "coarse-first")
-  SceneSource scene;
+  // The job's scene (text and files: meshes, an animated obstacle's cache, possibly megabytes) is sent
+  // once per worker session: scene_hash always (farm::scene_source_hash), scene only when the
+  // scheduler has not sent this hash to this worker yet; the worker keeps what it was sent.
+  std::string scene_hash;
+  std::optional<SceneSource> scene;
   std::string hierarchy_hash;  // kind == level: the hierarchy the task runs on
   // kind == level: the hierarchy file's bytes when the scheduler has not sent this hash to this
   // worker yet (data part 1 when present; "hierarchy_bytes" in the header says its size).

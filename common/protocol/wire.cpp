@@ -5,6 +5,8 @@
 #include <cstring>
 #include <limits>
 
+#include "util/base64.h"
+
 namespace pd::protocol::wire {
 
 // Data parts are the host's doubles copied as bytes; the wire is little-endian IEEE-754.
@@ -413,9 +415,23 @@ void refuse_type(const std::string& type, Family wanted) {
 // ---------------------------------------------------------------------------------------------------
 // Scenes.
 
+Json scene_file_json(const SceneFile& f) {
+  if (is_plain_text(f.content)) return Json{{"path", f.path}, {"content", f.content}};
+  return Json{{"path", f.path}, {"content_base64", base64_encode(f.content)}};
+}
+
+SceneFile read_scene_file(const Fields& f) {
+  const bool text = f.has("content"), bytes = f.has("content_base64");
+  if (text == bytes) Where{&f, "content"}.fail("needs exactly one of content and content_base64");
+  if (text) return {f.text("path"), f.text("content")};
+  std::optional<std::string> decoded = base64_decode(f.text("content_base64"));
+  if (!decoded) Where{&f, "content_base64"}.fail("not padded base64");
+  return {f.text("path"), std::move(*decoded)};
+}
+
 Json scene_json(const SceneSource& s) {
   Json files = Json::array();
-  for (const SceneFile& f : s.files) files.push_back(Json{{"path", f.path}, {"content", f.content}});
+  for (const SceneFile& f : s.files) files.push_back(scene_file_json(f));
   Json j = Json::object();
   j["name"] = s.name;
   j["text"] = s.text;
@@ -427,7 +443,7 @@ SceneSource read_scene(const Fields& f) {
   SceneSource s;
   s.name = f.text("name");
   s.text = f.text("text");
-  for (const Fields& file : f.objects("files")) s.files.push_back({file.text("path"), file.text("content")});
+  for (const Fields& file : f.objects("files")) s.files.push_back(read_scene_file(file));
   return s;
 }
 

@@ -196,8 +196,13 @@ Variant dispatch(const Message& msg, const std::array<std::pair<const char*, Var
   refuse_type(msg.type(), family);
 }
 
-// A job's scene in a header: {"name", "text", "files": [{"path", "content"}]}.
+// A job's scene in a header: {"name", "text", "files": [file, ...]}.
 Json scene_json(const SceneSource& s);
+// One scene file: {"path", "content"} when its bytes are plain text (OBJ files), {"path",
+// "content_base64"} otherwise (PC2 caches): a JSON string holds UTF-8 text only. The job store keeps
+// a job's files in the same form.
+Json scene_file_json(const SceneFile& f);
+SceneFile read_scene_file(const Fields& f);  // exactly one of the two content keys, valid base64
 SceneSource read_scene(const Fields& f);  // f: the scene object
 
 }  // namespace pd::protocol::wire

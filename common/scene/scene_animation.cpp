@@ -235,7 +235,22 @@ std::shared_ptr<const VertexAnimation> read_animation(const JsonNode& node, cons
   return std::make_shared<const VertexAnimation>(std::move(c.frames), start, step, interpolation);
 }
 
-std::vector<std::string> animation_files(const JsonNode& node) {
+void check_animations_cover(const Scene& scene, int frames) {
+  const double end = frames * scene.time_step;
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+    const SceneObject& o = scene.objects[k];
+    if (!o.motion || !o.motion->animation) continue;
+    const VertexAnimation& a = *o.motion->animation;
+    if (a.end() < end * (1.0 - 1e-12))
+      throw InputError(scene.source_path + ": objects[" + std::to_string(k) + "].animation: covers t = " +
+                       number_for_message(a.start()) + " to " + number_for_message(a.end()) + " s, but the job runs to " +
+                       number_for_message(end) + " s (" + std::to_string(frames) + " frames x " +
+                       number_for_message(scene.time_step) + " s)");
+  }
+}
+
+std::vector<std::string> animation_files(const nlohmann::json& animation) {
+  const JsonNode node(animation, "animation", "(scene)");
   if (auto p = node.optional("pc2")) return {p->string(scene_json::kMaxPathBytes)};
   const JsonNode pattern_node = node.required("obj_sequence");
   const std::string pattern = pattern_node.string(scene_json::kMaxPathBytes);

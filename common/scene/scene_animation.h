@@ -7,6 +7,7 @@
 #include <string>
 
 #include "geometry/mesh.h"
+#include "scene/scene.h"
 #include "scene/scene_json.h"
 #include "scene/vertex_animation.h"
 
@@ -23,10 +24,17 @@ std::shared_ptr<const VertexAnimation> read_animation(const scene_json::JsonNode
                                                       const TriMesh& mesh,
                                                       const std::function<void(Positions&)>& place, double shot_end);
 
-// The files `node` (an obstacle's animation) names, as the scene writes them (relative to the scene
-// file's folder): the OBJ sequence's files in frame order, or the PC2 file. For the farm, which ships
-// them with the scene (farm/scene_source.h). The node must have passed read_animation.
-std::vector<std::string> animation_files(const scene_json::JsonNode& node);
+// Throws InputError "<scene file>: objects[k].animation: covers t = a to b s, but the job runs to T s
+// (F frames x h)" for the first animated obstacle whose cache ends before frames x time_step: a job
+// run longer than its scene (pd simulate --frames, pd submit --frames) must not hold a body still
+// without saying so.
+void check_animations_cover(const Scene& scene, int frames);
+
+// The files an obstacle's animation (the JSON value of its "animation" key) names, as the scene
+// writes them (relative to the scene file's folder): the OBJ sequence's files in frame order, or the
+// PC2 file. For the farm, which ships them with the scene (farm/scene_source.h). The value must have
+// passed read_animation (a scene load_scene accepted).
+std::vector<std::string> animation_files(const nlohmann::json& animation);
 
 // The file name of frame `frame` of an OBJ sequence pattern: one run of '#' (zero-padded to its
 // length) or one printf conversion %d, %Nd or %0Nd. Throws InputError at `node` (the pattern's key)

@@ -8,6 +8,8 @@
 #include <deque>
 #include <nlohmann/json.hpp>
 
+#include "protocol/wire.h"
+
 namespace pd::sqlite {
 
 namespace {
@@ -380,8 +382,10 @@ std::vector<protocol::SceneFile> files_from_json(const Db& db, int64_t job, cons
   try {
     const nlohmann::json list = nlohmann::json::parse(text);
     if (!list.is_array()) db.fail_with(where + "not a JSON array");
-    for (const auto& f : list) files.push_back({f.at("path").get<std::string>(), f.at("content").get<std::string>()});
+    for (const auto& f : list) files.push_back(protocol::wire::read_scene_file(protocol::wire::Fields(f, "scene_files", "")));
   } catch (const nlohmann::json::exception& e) {
+    db.fail_with(where + e.what());
+  } catch (const protocol::ProtocolError& e) {
     db.fail_with(where + e.what());
   }
   return files;
@@ -391,7 +395,7 @@ std::vector<protocol::SceneFile> files_from_json(const Db& db, int64_t job, cons
 
 std::string files_to_json(const Db& db, const std::vector<protocol::SceneFile>& files) {
   nlohmann::json list = nlohmann::json::array();
-  for (const auto& f : files) list.push_back(nlohmann::json{{"path", f.path}, {"content", f.content}});
+  for (const auto& f : files) list.emplace_back(protocol::wire::scene_file_json(f));
   try {
     return list.dump();  // throws for text that is not UTF-8 (the wire's JSON header cannot hold it either)
   } catch (const nlohmann::json::exception& e) {

@@ -10,6 +10,7 @@
 
 #include "scene/scene_file.h"
 #include "support/input_error_of.h"
+#include "support/pc2_bytes.h"
 #include "support/test_paths.h"
 
 namespace pd::farm {
@@ -141,14 +142,50 @@ TEST_F(SceneSourceTest, ReadSceneSourceRefusesObjPathsAWorkerCannotRebuild) {
   const std::string relative =
       write_file(sub / "shot.json", scene_text("../meshes/quad.obj", "../poses/quad_posed.obj"));
   EXPECT_EQ(input_error_of([&] { read_scene_source(relative); }),
-            relative + ": objects[0].mesh.path: \"../meshes/quad.obj\" has a \"..\" component; a farm job needs OBJ "
+            relative + ": objects[0].mesh.path: \"../meshes/quad.obj\" has a \"..\" component; a farm job needs file "
                        "paths relative to the scene file's folder (without \"..\")");
   const std::string absolute =
       write_file(sub / "abs.json", scene_text("meshes/quad.obj", shot_dir_ + "/poses/quad_posed.obj"));
   EXPECT_EQ(input_error_of([&] { read_scene_source(absolute); }),
             absolute + ": objects[0].initial_positions.obj: \"" + shot_dir_ +
-                "/poses/quad_posed.obj\" is absolute; a farm job needs OBJ paths relative to the scene file's folder "
+                "/poses/quad_posed.obj\" is absolute; a farm job needs file paths relative to the scene file's folder "
                 "(without \"..\")");
+}
+
+// An animated obstacle's files travel with the scene: each frame of an OBJ sequence, or the PC2 file
+// (bytes that are not text), and the worker's copy animates the body identically.
+TEST_F(SceneSourceTest, AnAnimatedObstaclesCacheFilesTravelAndRebuildTheSameAnimation) {
+  const std::vector<Positions> samples = {Positions::Zero(4, 3), Positions::Constant(4, 3, 0.25),
+                                          Positions::Constant(4, 3, 0.5)};
+  write_file(fs::path(shot_dir_) / "body/walk.pc2", test::pc2_bytes(samples));
+  for (int k = 1; k <= 3; ++k) write_file(fs::path(shot_dir_) / ("body/f" + std::to_string(k) + ".obj"), kQuadObj);
+  const std::string text = R"({"format_version": 1, "time_step": 0.01, "frames": 2, "contact": {"dhat": 0.001},
+    "objects": [
+    {"name": "pc2", "obstacle": true, "mesh": {"type": "obj", "path": "meshes/quad.obj"},
+     "animation": {"pc2": "body/walk.pc2", "fps": 100}},
+    {"name": "seq", "obstacle": true, "mesh": {"type": "obj", "path": "meshes/quad.obj"},
+     "animation": {"obj_sequence": "body/f#.obj", "frames": [1, 3], "fps": 100}}]})";
+  const std::string path = write_file(fs::path(shot_dir_) / "body.json", text);
+  Scene loaded;
+  const protocol::SceneSource source = read_scene_source(path, &loaded);
+  std::vector<std::string> paths;
+  for (const protocol::SceneFile& f : source.files) paths.push_back(f.path);
+  EXPECT_EQ(paths, (std::vector<std::string>{"meshes/quad.obj", "body/walk.pc2", "body/f1.obj", "body/f2.obj",
+                                             "body/f3.obj"}));
+  const std::string worker = test::scratch_dir("scene_source_worker");
+  const Scene rebuilt = scene_from_source(source, worker);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const VertexAnimation& a = *loaded.objects[k].motion->animation;
+    const VertexAnimation& b = *rebuilt.objects[k].motion->animation;
+    ASSERT_EQ(a.frames(), b.frames());
+    for (int f = 0; f < a.frames(); ++f) EXPECT_EQ(a.frame(f), b.frame(f));
+  }
+  // The hash names every byte: one changed sample changes it.
+  protocol::SceneSource changed = source;
+  changed.files[1].content.back() ^= 1;
+  EXPECT_NE(scene_source_hash(changed), scene_source_hash(source));
+  EXPECT_EQ(scene_source_hash(source), scene_source_hash(read_scene_source(path)));
+  fs::remove_all(worker);
 }
 
 }  // namespace

@@ -10,51 +10,22 @@
 #include "geometry/obj_io.h"
 #include "geometry/shapes.h"
 #include "hierarchy/scene_hierarchy.h"
-#include "progressive/level_task.h"
 #include "progressive/scene_system.h"
 #include "scene/scene_file.h"
 #include "scene/scene_test_helpers.h"
 #include "support/intersection_checker.h"
+#include "support/level_runs.h"
 
 namespace pd {
 namespace {
 
 using test::json;
 
-// Intersecting face pairs of a frame, leaving out pairs inside one obstacle (a captured body's arm
-// may pass through its torso: not an error), m. face_offsets: the level's per-object face ranges.
-int intersections(const Eigen::VectorXd& x, const SceneLevel& level, const Scene& scene) {
-  const test::IntersectionReport r = test::find_intersections(as_rows(x), level.rest.F);
-  const auto object_of = [&](int f) {
-    std::size_t k = 0;
-    while (level.face_offsets[k + 1] <= f) ++k;
-    return k;
-  };
-  int count = 0;
-  for (const auto& [f, g] : r.face_pairs) {
-    const std::size_t a = object_of(f), b = object_of(g);
-    if (!(a == b && scene.objects[a].obstacle)) ++count;
-  }
-  return count + static_cast<int>(r.degenerate_faces.size());
-}
-
-struct LevelRun {
-  std::map<int, Eigen::VectorXd> x;
-  int intersecting = 0;  // frames with a pair the CGAL checker rejects
-};
+using test::LevelRun;
 
 LevelRun solve(const Scene& scene, const SceneHierarchy& h, int level, const LevelRun* below, bool direct) {
-  LevelRun run;
-  LevelTaskInputs in;
-  if (below) in.below = [below](int t) { return below->x.at(t); };
-  LevelTaskOptions opt;
-  opt.system.direct = direct;
-  const SceneLevel& lv = h.levels[static_cast<std::size_t>(level)];
-  const LevelTaskReport r = solve_level_task(scene, h, {level, 0, scene.frames}, in, [&](const FrameRecord& f) {
-    run.x[f.frame] = f.x;
-    if (intersections(f.x, lv, scene) > 0) ++run.intersecting;
-  }, opt);
-  EXPECT_EQ(r.unconverged_steps, 0) << "level " << level;
+  LevelRun run = test::solve_level(scene, h, level, below, direct);
+  EXPECT_EQ(run.unconverged_steps, 0) << "level " << level;
   return run;
 }
 

@@ -49,7 +49,12 @@ AssignTask full_assign() {
   m.frames = 40;
   m.levels = 3;
   m.hessian = "galerkin";
-  m.scene = {"scenes/flag.json", "{\"frames\": 40}\n", {{"meshes/flag.obj", "v 0 0 0\n"}, {"b é.obj", "o \"q\"\n"}}};
+  m.scene_hash = "0123456789abcdef";
+  // A binary file (a PC2 cache's header: NUL bytes, bytes >= 0x80) travels as base64.
+  m.scene = protocol::SceneSource{"scenes/flag.json", "{\"frames\": 40}\n",
+                                  {{"meshes/flag.obj", "v 0 0 0\n"},
+                                   {"b é.obj", "o \"q\"\n"},
+                                   {"body/walk.pc2", std::string("POINTCACHE2\0\x01\0\0\0\xff\x80", 18)}}};
   m.hierarchy_hash = "9f86d081";
   m.hierarchy_blob = std::string("\x89HDF\r\n\x1a\n\0\0\xff", 11);
   m.own_before = tricky_positions(4, 1.0);
@@ -61,6 +66,7 @@ AssignTask full_assign() {
 AssignTask plain_assign() {
   AssignTask m = full_assign();
   m.kind = TaskKind::hierarchy;
+  m.scene.reset();  // this worker was sent the scene with an earlier task
   m.hierarchy_blob.reset();
   m.own_before.reset();
   m.own_start.reset();
@@ -80,12 +86,16 @@ void expect_same(const AssignTask& a, const AssignTask& b) {
   EXPECT_EQ(a.frames, b.frames);
   EXPECT_EQ(a.levels, b.levels);
   EXPECT_EQ(a.hessian, b.hessian);
-  EXPECT_EQ(a.scene.name, b.scene.name);
-  EXPECT_EQ(a.scene.text, b.scene.text);
-  ASSERT_EQ(a.scene.files.size(), b.scene.files.size());
-  for (std::size_t i = 0; i < a.scene.files.size(); ++i) {
-    EXPECT_EQ(a.scene.files[i].path, b.scene.files[i].path);
-    EXPECT_EQ(a.scene.files[i].content, b.scene.files[i].content);
+  EXPECT_EQ(a.scene_hash, b.scene_hash);
+  ASSERT_EQ(a.scene.has_value(), b.scene.has_value());
+  if (a.scene) {
+    EXPECT_EQ(a.scene->name, b.scene->name);
+    EXPECT_EQ(a.scene->text, b.scene->text);
+    ASSERT_EQ(a.scene->files.size(), b.scene->files.size());
+    for (std::size_t i = 0; i < a.scene->files.size(); ++i) {
+      EXPECT_EQ(a.scene->files[i].path, b.scene->files[i].path);
+      EXPECT_EQ(a.scene->files[i].content, b.scene->files[i].content);
+    }
   }
   EXPECT_EQ(a.hierarchy_hash, b.hierarchy_hash);
   EXPECT_EQ(a.hierarchy_blob, b.hierarchy_blob);
@@ -165,6 +175,11 @@ TEST(ProtocolCommands, WelcomeRoundTrips) {
 TEST(ProtocolCommands, AssignTaskWithBlobAndOwnFramesRoundTripsEveryFieldBitForBit) {
   const AssignTask m = full_assign();
   const Parts parts = encode(m);
+  // Text files as they are, the binary one as base64.
+  const Json files = header(parts)["scene"]["files"];
+  EXPECT_EQ(files[0]["content"], "v 0 0 0\n");
+  EXPECT_EQ(files[2]["content_base64"], "UE9JTlRDQUNIRTIAAQAAAP+A");
+  EXPECT_FALSE(files[2].contains("content"));
   ASSERT_EQ(parts.size(), 4u);  // header, blob, own_before, own_start
   EXPECT_EQ(parts[1], *m.hierarchy_blob);
   EXPECT_EQ(header(parts)["hierarchy_bytes"], 11);
@@ -177,8 +192,9 @@ TEST(ProtocolCommands, AssignTaskWithoutOptionalsOmitsThemInsteadOfNull) {
   const Parts parts = encode(m);
   ASSERT_EQ(parts.size(), 1u);
   const Json h = header(parts);
-  for (const char* name : {"hierarchy_bytes", "own_vertices", "own_kappa", "hierarchy_blob", "own_before"})
+  for (const char* name : {"hierarchy_bytes", "own_vertices", "own_kappa", "hierarchy_blob", "own_before", "scene"})
     EXPECT_FALSE(h.contains(name)) << name;
+  EXPECT_EQ(h["scene_hash"], "0123456789abcdef");
   expect_same(round_trip(m), m);
 }
 
@@ -247,8 +263,8 @@ TEST(ProtocolCommands, EveryRequiredFieldIsCheckedByName) {
   EXPECT_EQ(check_every_field_required(encode(CancelTask{1, 2, "r"})), 3);
   EXPECT_EQ(check_every_field_required(encode(Refused{"r"})), 1);
   EXPECT_EQ(check_every_field_required(encode(SchedulerHeartbeat{5})), 1);
-  // The scene's own fields, and a file's.
-  const Parts parts = encode(plain_assign());
+  // The scene's own fields, and a file's (a file needs one of content and content_base64).
+  const Parts parts = encode(full_assign());
   int checked = 0;
   for (const char* name : {"name", "text", "files"}) {
     Json h = header(parts);
@@ -259,15 +275,30 @@ TEST(ProtocolCommands, EveryRequiredFieldIsCheckedByName) {
   for (const char* name : {"path", "content"}) {
     Json h = header(parts);
     h["scene"]["files"][1].erase(name);
-    EXPECT_EQ(error_of(with_header(parts, h)), std::string("assign: field 'scene.files[1].") + name + "': missing");
+    EXPECT_EQ(error_of(with_header(parts, h)),
+              std::string("assign: field 'scene.files[1].") + name +
+                  (name == std::string("path") ? "': missing" : "': needs exactly one of content and content_base64"));
     ++checked;
   }
-  EXPECT_EQ(checked, 5);
+  Json both = header(parts);
+  both["scene"]["files"][1]["content_base64"] = "AAAA";
+  EXPECT_EQ(error_of(with_header(parts, both)),
+            "assign: field 'scene.files[1].content': needs exactly one of content and content_base64");
+  Json bad = header(parts);
+  bad["scene"]["files"][2]["content_base64"] = "UE9J*";
+  EXPECT_EQ(error_of(with_header(parts, bad)), "assign: field 'scene.files[2].content_base64': not padded base64");
+  for (const char* hash : {"", "../../etc", "ABCDEF", "0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef0"}) {
+    Json h = header(parts);
+    h["scene_hash"] = hash;
+    EXPECT_EQ(error_of(with_header(parts, h)), "assign: field 'scene_hash': not 1 to 64 lower-case hex digits") << hash;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 9);
 }
 
 TEST(ProtocolCommands, EveryFieldOfTheWrongTypeIsRefusedByName) {
   EXPECT_EQ(check_every_field_typed(encode(Welcome{1, 2})), 2);
-  EXPECT_EQ(check_every_field_typed(encode(full_assign())), 16);  // the optional ones too
+  EXPECT_EQ(check_every_field_typed(encode(full_assign())), 17);  // the optional ones too
   EXPECT_EQ(check_every_field_typed(encode(BelowFrame{1, 2, 3, 4, {1, 2, 3}})), 5);
   EXPECT_EQ(check_every_field_typed(encode(GuideFrame{1, 2, 3, 4, {1, 2, 3}})), 5);
   EXPECT_EQ(check_every_field_typed(encode(CancelTask{1, 2, "r"})), 3);

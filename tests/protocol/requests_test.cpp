@@ -126,8 +126,10 @@ TEST(ProtocolRequests, EveryRequiredFieldIsCheckedByName) {
   }
   for (const char* name : {"path", "content"}) {
     Json h = header(parts);
-    h["scene"]["files"][2].erase(name);
-    EXPECT_EQ(error_of(with_header(parts, h)), std::string("submit: field 'scene.files[2].") + name + "': missing");
+    h["scene"]["files"][1].erase(name);  // files[2] is not plain text: it travels as content_base64
+    EXPECT_EQ(error_of(with_header(parts, h)),
+              std::string("submit: field 'scene.files[1].") + name +
+                  (name == std::string("path") ? "': missing" : "': needs exactly one of content and content_base64"));
     ++checked;
   }
   EXPECT_EQ(checked, 5);

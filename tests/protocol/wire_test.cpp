@@ -213,8 +213,11 @@ TEST(ProtocolWire, InvalidUtf8IsRefusedWhenEncodingNamingTheField) {
   hello.name = "w\xff";
   EXPECT_TRUE(has(error_of([&] { encode(hello); }), "hello: field 'name': not valid UTF-8"));
   SubmitJob submit;
+  // A file's content that is not plain text travels as base64 (a PC2 cache); a path must be UTF-8.
+  submit.scene.files = {{"a.obj", "ok"}, {"b\xe9.obj", "v 1 2 3\n"}};
+  EXPECT_TRUE(has(error_of([&] { encode(submit); }), "submit: field 'scene.files[1].path': not valid UTF-8"));
   submit.scene.files = {{"a.obj", "ok"}, {"b.obj", "v 1 2 3\n# caf\xe9\n"}};
-  EXPECT_TRUE(has(error_of([&] { encode(submit); }), "submit: field 'scene.files[1].content': not valid UTF-8"));
+  EXPECT_EQ(std::get<SubmitJob>(decode_request(encode(submit))).scene.files[1].content, "v 1 2 3\n# caf\xe9\n");
   StatusReply status;
   status.jobs.resize(1);
   status.jobs[0].name = "\xc3";
@@ -288,7 +291,8 @@ TEST(ProtocolWire, EveryDecoderRefusesMalformedEnvelopes) {
 // One message of every type, each with data parts where it has them.
 std::vector<Parts> samples() {
   AssignTask assign;
-  assign.scene = {"s.json", "{}", {{"m.obj", "v 0 0 0\n"}}};
+  assign.scene_hash = "00ff";
+  assign.scene = protocol::SceneSource{"s.json", "{}", {{"m.obj", "v 0 0 0\n"}}};
   assign.hierarchy_blob = std::string("\x89HDF\0\xff", 6);
   assign.own_before = std::vector<double>(6, 0.5);
   assign.own_start = std::vector<double>(6, -0.5);
@@ -307,7 +311,7 @@ std::vector<Parts> samples() {
   WorkersReply workers;
   workers.workers.resize(2);
   SubmitJob submit;
-  submit.scene = assign.scene;
+  submit.scene = *assign.scene;
   return {encode(Welcome{}),
           encode(assign),
           encode(BelowFrame{1, 2, 0, 3, {1, 2, 3}}),

@@ -162,10 +162,9 @@ TEST(SceneAnimation, BadKeysAndCombinationsAreRefusedByName) {
 
 TEST(SceneAnimation, AnimationFilesListsTheSequenceInFrameOrder) {
   const json j = {{"obj_sequence", "b/f_%03d.obj"}, {"frames", {8, 11}}, {"fps", 24}};
-  const scene_json::JsonNode node(j, "objects[1].animation", kFile);
-  EXPECT_EQ(animation_files(node), (std::vector<std::string>{"b/f_008.obj", "b/f_009.obj", "b/f_010.obj", "b/f_011.obj"}));
+  EXPECT_EQ(animation_files(j), (std::vector<std::string>{"b/f_008.obj", "b/f_009.obj", "b/f_010.obj", "b/f_011.obj"}));
   const json p = {{"pc2", "b/walk.pc2"}, {"fps", 24}};
-  EXPECT_EQ(animation_files(scene_json::JsonNode(p, "a", kFile)), (std::vector<std::string>{"b/walk.pc2"}));
+  EXPECT_EQ(animation_files(p), (std::vector<std::string>{"b/walk.pc2"}));
 }
 
 }  // namespace

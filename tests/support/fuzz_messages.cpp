@@ -47,6 +47,7 @@ std::vector<Parts> commands() {
   level.frames = 5;
   level.levels = 2;
   level.hessian = "lagged";
+  level.scene_hash = "f022";
   level.scene = fuzz_scene();
   level.hierarchy_hash = "fuzzhash";
   level.hierarchy_blob = std::string("HDF5 but not really");

@@ -181,6 +181,22 @@ IntersectionReport find_intersections(const Positions& V, const Faces& F) {
   return find_intersections_in_soup(V, F);
 }
 
+int intersections_outside_obstacles(const Positions& V, const Faces& F, const std::vector<int>& face_offsets,
+                                    const std::vector<char>& obstacle) {
+  const IntersectionReport r = find_intersections(V, F);
+  const auto object_of = [&](int f) {
+    std::size_t k = 0;
+    while (k + 1 < face_offsets.size() && face_offsets[k + 1] <= f) ++k;
+    return k;
+  };
+  int count = static_cast<int>(r.degenerate_faces.size());
+  for (const auto& [f, g] : r.face_pairs) {
+    const std::size_t a = object_of(f), b = object_of(g);
+    if (!(a == b && a < obstacle.size() && obstacle[a])) ++count;
+  }
+  return count;
+}
+
 bool intersection_free(const Positions& V, const Faces& F) {
   const IntersectionReport r = find_intersections(V, F);
   return r.intersecting_pairs == 0 && r.degenerate_faces.empty();

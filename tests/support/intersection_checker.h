@@ -49,6 +49,13 @@ IntersectionReport find_intersections(const Positions& V, const Faces& F);
 // The triangle-soup path alone, whatever F is (for tests that compare it with the mesh path).
 IntersectionReport find_intersections_in_soup(const Positions& V, const Faces& F);
 
+// Intersecting face pairs of a scene frame that count against the contact promise: every pair but
+// those inside one obstacle (an animated body's arm may pass through its torso, as captured bodies'
+// do), plus the degenerate faces (which cannot be certified). face_offsets: object k owns faces
+// [face_offsets[k], face_offsets[k + 1]) of F; obstacle: one flag per object.
+int intersections_outside_obstacles(const Positions& V, const Faces& F, const std::vector<int>& face_offsets,
+                                    const std::vector<char>& obstacle);
+
 // True when the check is complete and found nothing: no intersecting pair and no degenerate face
 // (a degenerate face could pass through another face unseen, so it cannot be certified free).
 bool intersection_free(const Positions& V, const Faces& F);

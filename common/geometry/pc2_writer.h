@@ -1,5 +1,6 @@
 #pragma once
-// PC2 point caches (pd export --format pc2): the vertex animation format that Blender's Mesh Cache
+// Writing PC2 point caches (pd export --format pc2, the character generator in tools/; the reader is
+// geometry/pc2_io.h): the vertex animation format that Blender's Mesh Cache
 // modifier, 3ds Max's Point Cache modifier and Maya's point cache import read. Layout, all
 // little-endian:
 //   char[12] "POINTCACHE2\0", int32 file version (1), int32 number of points, float32 start frame,
@@ -12,7 +13,7 @@
 
 #include "geometry/mesh.h"
 
-namespace pd::cli {
+namespace pd {
 
 // Bytes of the PC2 header.
 inline constexpr int kPc2HeaderBytes = 32;
@@ -49,4 +50,4 @@ class Pc2Writer {
   int written_ = 0;
 };
 
-}  // namespace pd::cli
+}  // namespace pd

@@ -1,4 +1,4 @@
-#include "pc2_writer.h"
+#include "geometry/pc2_writer.h"
 
 #include <cerrno>
 #include <cmath>
@@ -9,7 +9,7 @@
 
 #include "util/input_error.h"
 
-namespace pd::cli {
+namespace pd {
 namespace {
 
 // Little-endian bytes of a 32-bit word, whatever the host's byte order (PC2 is little-endian).
@@ -88,4 +88,4 @@ void Pc2Writer::close() {
   if (std::fclose(f) != 0) throw InputError(path_ + ": cannot write: " + std::strerror(errno));
 }
 
-}  // namespace pd::cli
+}  // namespace pd
