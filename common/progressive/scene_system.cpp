@@ -7,6 +7,7 @@
 
 #include "geometry/topology.h"
 #include "physics/bending_hinge.h"
+#include "physics/bending_midedge_fit.h"
 #include "physics/gravity.h"
 #include "physics/inertia.h"
 #include "physics/membrane_neo_hookean.h"
@@ -58,10 +59,15 @@ void add_shell_forces(const SceneObject& obj, const Faces& faces, int offset, co
   const Material& mat = obj.material;
   terms.push_back(std::make_unique<NeoHookeanMembrane>(
       faces, rest, MembraneMaterialParams::from(mat.youngs_modulus, mat.poisson_ratio, mat.thickness)));
+  // Bending needs an interior edge (a lone triangle cannot bend); the material picks the model.
   std::vector<Hinge> hinges = build_topology(obj.rest).hinges;
-  for (auto& hg : hinges)
-    for (int& v : hg.v) v += offset;
-  if (!hinges.empty()) terms.push_back(std::make_unique<HingeBending>(hinges, rest, mat.bending_rigidity()));
+  if (!hinges.empty() && mat.bending_model == BendingModel::MidedgeFit) {
+    terms.push_back(std::make_unique<MidedgeFitBending>(faces, rest, mat.bending_rigidity(), mat.poisson_ratio));
+  } else if (!hinges.empty()) {
+    for (auto& hg : hinges)
+      for (int& v : hg.v) v += offset;
+    terms.push_back(std::make_unique<HingeBending>(hinges, rest, mat.bending_rigidity()));
+  }
   if (obj.pressure) terms.push_back(std::make_unique<PressureTerm>(faces, initial, *obj.pressure));
 }
 

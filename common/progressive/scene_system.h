@@ -53,8 +53,8 @@ struct SceneSystem {
 // instead).
 SceneSystem build_scene_system(const Scene& scene, bool own_shell_forces = true);
 
-// An object's shell forces appended to `terms`: Neo-Hookean membrane, hinge bending if it has
-// interior edges, pressure if it has one. faces = its faces in global ids, offset = its first global
+// An object's shell forces appended to `terms`: Neo-Hookean membrane, bending if it has interior
+// edges (its material's bending_model: midedge fit or hinge), pressure if it has one. faces = its faces in global ids, offset = its first global
 // vertex, rest = the global rest positions the terms read, initial = the stacked initial positions
 // (the pressure's V0).
 void add_shell_forces(const SceneObject& obj, const Faces& faces, int offset, const Positions& rest,

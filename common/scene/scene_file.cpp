@@ -109,7 +109,8 @@ Positions read_posed(const JsonNode& node, const TriMesh& rest, const std::strin
 }
 
 Material read_material(const JsonNode& node) {
-  node.expect_keys({"preset", "density", "youngs_modulus", "poisson_ratio", "thickness", "bending_youngs_modulus"});
+  node.expect_keys(
+      {"preset", "density", "youngs_modulus", "poisson_ratio", "thickness", "bending_youngs_modulus", "bending_model"});
   const MaterialPreset* preset = nullptr;
   if (auto p = node.optional("preset")) {
     std::string name = p->choice({"cotton", "rubber", "aluminum"}, "material preset");
@@ -135,6 +136,9 @@ Material read_material(const JsonNode& node) {
   });
   m.thickness = core("thickness", preset ? preset->thickness : 0.0, within(limits::kThickness));
   if (auto eb = node.optional("bending_youngs_modulus")) m.bending_youngs_modulus = eb->in_range(limits::kBendingModulus);
+  if (auto b = node.optional("bending_model"))
+    m.bending_model = b->choice({"midedge_fit", "hinge"}, "bending model") == "hinge" ? BendingModel::Hinge
+                                                                                  : BendingModel::MidedgeFit;
   return m;
 }
 

@@ -73,10 +73,11 @@ TEST(LevelStepper, ClampedStripSettlesToPlateTheoryDeflection) {
   // scenes/strip-cantilever.json: a strip clamped by two pinned vertex columns (one column would be a
   // hinge), Poisson ratio 0 so that plate and beam theory agree. Small-deflection theory: tip
   // deflection q L^4 / (8 D), q = rho t g, D = E t^3 / 12. Two pinned columns impose zero slope
-  // across the first cell, so the clamp acts at mid-cell: L = 0.2 m free + dx/2. The grid's diagonals
-  // alternate by row, on which the strip stays cylindrical and hinge bending is exact (on the
-  // checkerboard grid it sags 1.21-1.25x, see shapes.h). What remains is O(dx^2) discretisation, load
-  // lumping, (w/L)^2 ~ 1e-4 geometric nonlinearity and the 1e-5 solver tolerance: measured 6e-4.
+  // across the first cell, so the clamp acts at mid-cell: L = 0.2 m free + dx/2. The scene's default
+  // bending (midedge fit) gives the plate value on any split; the grid's diagonals alternate by row,
+  // on which the hinge would be exact too (tests/physics/bending_plate_theory_test.cpp compares both
+  // on every split). What remains is O(dx^2) discretisation, load lumping, (w/L)^2 ~ 1e-4 geometric
+  // nonlinearity and the 1e-5 solver tolerance: measured 2e-4 (6e-4 with the hinge).
   const Scene scene = load_scene(test::source_dir() + "/scenes/strip-cantilever.json");
   SceneSystem sys = build_scene_system(scene);
   const Eigen::VectorXd x = run_scene(scene, sys);
