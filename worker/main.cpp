@@ -54,6 +54,11 @@ int main(int argc, char** argv) {
   app.add_option("--refuse-vertical-starts-before", options.refuse_vertical_starts_before,
                  "Fault injection for tests: vertical starts at frames before F fail as refused safe upsamplings")
       ->check(CLI::Range(1, 10'000'000));  // a job's frames
+  double max_memory_gib = 0.0;
+  app.add_option("--max-memory", max_memory_gib,
+                 "The most memory a task may need, GiB (default: what the machine, ulimit -v and the cgroup leave "
+                 "this process); a level task needing more is refused before it starts, so another worker takes it")
+      ->check(CLI::Range(1e-6, 1e6));
   app.add_option("--server-key", options.server_key_file,
                  "The scheduler's public key file (its PREFIX.pub); with --key, for a scheduler beyond loopback");
   app.add_option("--key", options.key_file, "This worker's key pair (PREFIX.key from pd keys); with --server-key");
@@ -77,6 +82,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   pd::set_element_threads(threads);
+  options.max_memory_bytes = max_memory_gib * 1024.0 * 1024.0 * 1024.0;
   const std::string pid = std::to_string(getpid());
   options.slurm_job = slurm_job_from_environment();
   if (options.name.empty() && !options.slurm_job.empty()) options.name = "slurm-" + options.slurm_job;

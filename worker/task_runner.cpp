@@ -19,6 +19,7 @@
 #include "hierarchy/safe_upsampling.h"
 #include "scene/scene_file.h"
 #include "store/hierarchy_store.h"
+#include "util/memory_budget.h"
 
 namespace pd::worker {
 
@@ -75,6 +76,22 @@ Scene job_scene(const protocol::AssignTask& task, const std::string& scratch_dir
   return scene;
 }
 
+// Refuses, before anything is built, a level task this worker cannot hold (issue 47 item 2): the
+// estimate pd simulate checks (util/memory_budget.h) against what this process may take and
+// --max-memory. The refusal fails the attempt like any error, so the scheduler gives the task to
+// another worker (and fails it, with this message, after three refusals).
+void check_task_memory(const protocol::AssignTask& task, long long vertices, double max_memory_bytes) {
+  const double needed = simulation_bytes(vertices);
+  MemoryBudget budget = memory_budget();
+  if (max_memory_bytes > 0.0 && max_memory_bytes < budget.bytes) budget = {max_memory_bytes, "--max-memory"};
+  if (needed > budget.bytes)
+    throw std::runtime_error("task " + std::to_string(task.task) + " (level " + std::to_string(task.level) + ", " +
+                             std::to_string(vertices) + " vertices) needs about " + gib_text(needed) + " (about " +
+                             std::to_string(static_cast<int>(kSimulationBytesPerVertex / 1024)) +
+                             " KiB a vertex); this worker may take " + gib_text(budget.bytes) + " (limited by " +
+                             budget.limited_by + ")");
+}
+
 }  // namespace
 
 std::shared_ptr<const SceneHierarchy> HierarchyCache::find(const std::string& hash) const {
@@ -91,13 +108,14 @@ void HierarchyCache::put(const std::string& hash, std::shared_ptr<const SceneHie
 bool HierarchyCache::has(const std::string& hash) const { return find(hash) != nullptr; }
 
 TaskRunner::TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache, int fail_level,
-                       bool refuse_vertical_starts, int refuse_vertical_starts_before)
+                       bool refuse_vertical_starts, int refuse_vertical_starts_before, double max_memory_bytes)
     : wake_fd_(wake_fd),
       scratch_dir_(std::move(scratch_dir)),
       cache_(cache),
       fail_level_(fail_level),
       refuse_vertical_starts_(refuse_vertical_starts),
-      refuse_vertical_starts_before_(refuse_vertical_starts_before) {
+      refuse_vertical_starts_before_(refuse_vertical_starts_before),
+      max_memory_bytes_(max_memory_bytes) {
   fs::create_directories(scratch_dir_);
 }
 
@@ -303,6 +321,8 @@ void TaskRunner::run_level(const protocol::AssignTask& task) {
   const std::string job_dir = scratch_dir_ + "/job-" + std::to_string(task.job);
   const Scene scene = job_scene(task, scratch_dir_, job_dir);
   const std::shared_ptr<const SceneHierarchy> h = hierarchy_for(task, job_dir);
+  check_task_memory(task, static_cast<long long>(h->levels.at(static_cast<std::size_t>(task.level)).rest.V.rows()),
+                    max_memory_bytes_);
   LevelTaskInputs inputs;
   if (task.level >= 1) inputs.below = [this](int t) { return wait_below(t); };
   // A vertical start: a later subset of a refinement level that does not continue from own frames.

@@ -41,8 +41,10 @@ class TaskRunner {
   // Fault injection for tests: fail_level >= 0: every level task of that level fails at once;
   // refuse_vertical_starts: every vertical start fails as a refused safe upsampling;
   // refuse_vertical_starts_before > 0: only those at a frame before it do.
+  // max_memory_bytes > 0: level tasks needing more are refused (WorkerOptions::max_memory_bytes).
   TaskRunner(int wake_fd, std::string scratch_dir, HierarchyCache& cache, int fail_level = -1,
-             bool refuse_vertical_starts = false, int refuse_vertical_starts_before = 0);
+             bool refuse_vertical_starts = false, int refuse_vertical_starts_before = 0,
+             double max_memory_bytes = 0.0);
   ~TaskRunner();  // cancels and joins
   TaskRunner(const TaskRunner&) = delete;
   TaskRunner& operator=(const TaskRunner&) = delete;
@@ -80,6 +82,7 @@ class TaskRunner {
   int fail_level_ = -1;
   bool refuse_vertical_starts_ = false;
   int refuse_vertical_starts_before_ = 0;
+  double max_memory_bytes_ = 0.0;
   mutable std::mutex mutex_;
   std::condition_variable frame_arrived_;
   std::map<int, Eigen::VectorXd> below_;  // frames of level l-1 fed to the running attempt

@@ -241,7 +241,7 @@ int run_worker(const WorkerOptions& options, const std::atomic<bool>& stop) {
       std::chrono::duration<double>(options.scheduler_timeout_s));
   {
     TaskRunner runner(wake_fd, options.scratch_dir, cache, options.fail_level, options.refuse_vertical_starts,
-                      options.refuse_vertical_starts_before);
+                      options.refuse_vertical_starts_before, options.max_memory_bytes);
     while (!stop) {
       bool reconnect;
       bool welcomed;

@@ -25,6 +25,10 @@ struct WorkerOptions {
   bool refuse_vertical_starts = false;
   // Fault injection: refuse only the vertical starts at frames before this one (0: no such limit).
   int refuse_vertical_starts_before = 0;
+  // --max-memory: the most memory a task may need, bytes (0: only what the machine, ulimit -v and the
+  // cgroup leave this process). A level task that needs more (pd simulate's estimate per vertex,
+  // util/memory_budget.h) is refused before anything is built, so another worker can take it.
+  double max_memory_bytes = 0.0;
   // CURVE: --server-key (the scheduler's .pub) and --key (this worker's pair), both or neither, read
   // by main() into `curve` and applied to every session's socket before it connects.
   std::string server_key_file, key_file;

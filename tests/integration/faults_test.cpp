@@ -271,5 +271,31 @@ TEST_F(FarmTest, ATaskFailingOnThreeWorkersFailsTheJobBlocksItsDependentsAndRequ
   EXPECT_NE(again.err.find("only a failed job can be requeued"), std::string::npos) << again.describe();
 }
 
+// A worker that cannot hold a task refuses it before building anything (--max-memory here; the
+// machine's available memory, ulimit -v and the cgroup otherwise), naming what it needs and what it
+// may take; the task goes to a worker that can, and the job ends done.
+TEST_F(FarmTest, ATaskTooLargeForAWorkersMemoryIsRefusedThereNamingTheFiguresAndRunsOnAnother) {
+  Farm& farm = start_farm(1, "faults_memory");
+  farm.add_worker({"--max-memory", "0.001"});  // w2: 1 MiB, less than any level of the scene needs
+  const int64_t job = test::submit(farm, {test::scene_path("cube-trampoline.json"), "--frames", "10"});
+  test::wait_until_done(farm, job, test::kShortJob);
+  int refused = 0;
+  for (const json& e : test::log_events(farm.scheduler_log(), "attempt_failed")) {
+    const std::string message = e.at("message").get<std::string>();
+    EXPECT_NE(message.find("vertices) needs about"), std::string::npos) << message;
+    EXPECT_NE(message.find("KiB a vertex); this worker may take 0.0 GiB (limited by --max-memory)"), std::string::npos)
+        << message;
+    EXPECT_EQ(e.at("worker").get<int64_t>(), 2) << message;
+    ++refused;
+  }
+  EXPECT_GE(refused, 1) << "w2 was never given a level task";
+  const json status = test::job_status(farm, job);  // kept: a loop over a temporary's member would dangle
+  for (const json& t : status.at("tasks")) {
+    if (t.at("kind") == "level") {
+      EXPECT_EQ(t.at("worker"), "w1") << t.dump();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace pd
