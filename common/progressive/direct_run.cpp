@@ -1,12 +1,14 @@
 #include "progressive/direct_run.h"
 
 #include "progressive/frame_stats.h"
+#include "scene/scene_animation.h"
 #include "store/frame_store.h"
 
 namespace pd {
 
 int run_direct(const Scene& scene, const DirectRunOptions& options) {
   const int frames = options.frames >= 1 ? options.frames : scene.frames;
+  check_animations_cover(scene, frames);  // before the frame file is created
   SceneSystem sys = build_scene_system(scene);
   check_start_state(scene, sys);
   FrameWriter writer = FrameWriter::create(options.out_path, scene.json_text, frames);

@@ -10,6 +10,8 @@
 #include "geometry/obj_io.h"
 #include "geometry/shapes.h"
 #include "hierarchy/scene_hierarchy.h"
+#include "progressive/direct_run.h"
+#include "progressive/progressive_run.h"
 #include "progressive/scene_system.h"
 #include "scene/scene_file.h"
 #include "scene/scene_test_helpers.h"
@@ -172,6 +174,33 @@ TEST(AnimatedObstacle, AFastSweepingBodyPushesAHangingCurtainWithoutPassingThrou
   // The bar's near face ends at z = 0.28 - 0.05: the curtain's middle went with it.
   EXPECT_GT(pushed, 0.2);
   std::printf("[fast body] the curtain bulges %.3f m along the bar's path\n", pushed);
+}
+
+// A run longer than its body's cache (pd simulate --frames, either mode) is refused before anything is
+// written, naming the object's key and both times, instead of holding the body still.
+TEST(AnimatedObstacle, ARunLongerThanTheBodysCacheIsRefusedInEitherMode) {
+  test::TempDir dir;
+  const Scene scene = body_scene(dir, 6, 24.0);  // the cache covers 0.0833 s: 3 cache frames
+  const std::string out = dir.path() + "/out.h5";
+  for (const bool direct : {true, false}) {
+    const std::string message = test::error_of([&] {
+      if (direct) {
+        DirectRunOptions o;
+        o.out_path = out;
+        o.frames = 50;
+        run_direct(scene, o);
+      } else {
+        ProgressiveRunOptions o;
+        o.out_path = out;
+        o.frames = 50;
+        run_progressive(scene, o);
+      }
+    });
+    EXPECT_NE(message.find("body-scene.json: objects[1].animation: covers t = 0 to 0.0833"), std::string::npos)
+        << message;
+    EXPECT_NE(message.find("but the job runs to 0.5 s (50 frames x 0.01 s)"), std::string::npos) << message;
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
 }
 
 }  // namespace
