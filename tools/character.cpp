@@ -174,17 +174,22 @@ std::vector<int> body_bones(const CharacterOptions& o) {
   return bones;
 }
 
+// The body's vertices at time t: vertex i moved by its bone bones[i].
+Positions posed(const std::vector<int>& bones, const TriMesh& body, double t, double seconds) {
+  const std::array<Eigen::Isometry3d, kBones> p = pose(t, seconds);
+  Positions x(body.V.rows(), 3);
+  for (Eigen::Index i = 0; i < x.rows(); ++i)
+    x.row(i) = (p[static_cast<std::size_t>(bones[static_cast<std::size_t>(i)])] * Vec3(body.V.row(i).transpose())).transpose();
+  return x;
+}
+
 }  // namespace
 
 Positions body_at(const CharacterOptions& options, const TriMesh& body, double t) {
   const std::vector<int> bones = body_bones(options);
   if (static_cast<Eigen::Index>(bones.size()) != body.V.rows())
     throw std::invalid_argument("body_at: the mesh is not the character's at these options");
-  const std::array<Eigen::Isometry3d, kBones> p = pose(t, options.seconds);
-  Positions x(body.V.rows(), 3);
-  for (Eigen::Index i = 0; i < x.rows(); ++i)
-    x.row(i) = (p[static_cast<std::size_t>(bones[static_cast<std::size_t>(i)])] * Vec3(body.V.row(i).transpose())).transpose();
-  return x;
+  return posed(bones, body, t, options.seconds);
 }
 
 Character make_character(const CharacterOptions& o) {
@@ -196,7 +201,7 @@ Character make_character(const CharacterOptions& o) {
   std::vector<int> bones;
   for (const Capsule& cap : capsules()) add_capsule(cap, o.segments, c.body, bones);
   const int count = static_cast<int>(std::lround(o.seconds * o.fps));
-  for (int k = 0; k <= count; ++k) c.frames.push_back(body_at(o, c.body, k / o.fps));
+  for (int k = 0; k <= count; ++k) c.frames.push_back(posed(bones, c.body, k / o.fps, o.seconds));
   c.skirt = make_skirt(o.skirt_around, o.skirt_down);
   return c;
 }
